@@ -1,0 +1,28 @@
+"""Planning methods, one module each; :func:`get_planner` looks one up by method name."""
+
+from __future__ import annotations
+
+from mmplan.errors import UnknownNameError
+from mmplan.planners.base import Planner, PlannerSettings, Problem, register, registry
+
+# Importing a planner module registers it.
+# (planner modules are added here as they land)
+
+__all__ = ["Planner", "PlannerSettings", "Problem", "get_planner", "methods", "register"]
+
+
+def methods() -> list[str]:
+    """Names of the available planning methods."""
+    return sorted(registry())
+
+
+def get_planner(method: str) -> type[Planner]:
+    """The planner class for ``method``.
+
+    Raises:
+        UnknownNameError: no planner has that method name.
+    """
+    found = registry().get(method)
+    if found is None:
+        raise UnknownNameError("planner.method", f"unknown method {method!r}; choose one of {methods()}")
+    return found

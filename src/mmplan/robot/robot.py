@@ -1,0 +1,315 @@
+r"""Robot: a platform and an arm as one symbolic kinematic tree, with compiled functions.
+
+Everything planners need in loops is compiled once into CasADi ``Function`` objects
+(:attr:`Robot.functions`) from the symbolic tree; the NumPy-facing methods wrap them.
+
+Symbols (all expressions in the generalized coordinates q (n,), platform part first):
+
+* k(q) end-effector position (3,), J = dk/dq (3, n), J_a its arm columns (3, n_a);
+* A(q) Pfaffian matrix (h, n), N(q) basis of ker A (n, n - h), B(q) actuation (n, n - h);
+* M(q) (n, n), c(q, dq) (n,) from :mod:`mmplan.robot.dynamics`;
+* manipulability mu(q) = sqrt(det(J_a J_a^T)) (Yoshikawa; eq. (5) of 000);
+* actuator efforts tau = (N^T B)^{-1} N^T (M ddq + c) (eq. (20) of 000): the efforts that
+  realise ddq when the constraint forces A^T lambda are eliminated (N^T A^T = 0).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import casadi as ca
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mmplan.errors import InputError, ModelError
+from mmplan.robot import dynamics
+from mmplan.robot.bases import Platform
+from mmplan.robot.tree import Body, Joint, KinematicTree
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class CollisionSphere:
+    """A collision sphere fixed to a body: ``center`` in the body frame [m], ``radius`` [m].
+
+    A radius of 0 is a collision point (papers 000/003 discretize links into points).
+    """
+
+    body: str
+    center: tuple[float, float, float]
+    radius: float = 0.0
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Joint limits of the arm coordinates and actuator effort limits.
+
+    Attributes:
+        joint_min, joint_max: Arm joint limits (n_arm,) [rad or m].
+        torque_min, torque_max: Actuator limits (n_act,) [N m or N]; +-inf where unlimited.
+    """
+
+    joint_min: Array
+    joint_max: Array
+    torque_min: Array
+    torque_max: Array
+
+    @property
+    def has_torque_limits(self) -> bool:
+        """True when at least one actuator limit is finite."""
+        return bool(np.isfinite(self.torque_min).any() or np.isfinite(self.torque_max).any())
+
+
+@dataclass(frozen=True)
+class EndEffector:
+    """End-effector point: ``offset`` [m] in the frame of ``body``."""
+
+    body: str
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class Symbols:
+    """Symbolic expressions of a robot (CasADi SX), for planners that derive further."""
+
+    q: ca.SX
+    dq: ca.SX
+    ddq: ca.SX
+    transforms: dict[str, ca.SX]
+    ee_position: ca.SX
+    ee_rotation: ca.SX
+    jacobian: ca.SX
+    jacobian_arm: ca.SX
+    pfaffian: ca.SX
+    null_basis: ca.SX
+    actuation: ca.SX
+    mass_matrix: ca.SX
+    bias: ca.SX
+    manipulability: ca.SX
+    collision_points: ca.SX
+    tau: ca.SX = field(default_factory=lambda: ca.SX())
+
+
+class Robot:
+    """A mobile manipulator: platform + arm, kinematics, Pfaffian constraints and dynamics.
+
+    Args:
+        name: Robot name (registry key).
+        platform: Platform kind, contributing the first coordinates.
+        arm_bodies, arm_joints: The arm's bodies and joints; the arm root's parent is
+            ``"platform"``. Every non-fixed arm joint adds one arm coordinate.
+        end_effector: End-effector point.
+        limits: Default joint and actuator limits.
+        collision: Collision spheres (points) on the platform and the links.
+        friction: Optional joint friction per coordinate name.
+        description: One paragraph for ``mmplan robots``.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        platform: Platform,
+        arm_bodies: Sequence[Body],
+        arm_joints: Sequence[Joint],
+        end_effector: EndEffector,
+        limits: Limits,
+        collision: Sequence[CollisionSphere] = (),
+        friction: Mapping[str, dynamics.Friction] | None = None,
+        description: str = "",
+    ) -> None:
+        self.name = name
+        self.description = description
+        self.platform = platform
+        p_bodies, p_joints = platform.bodies_and_joints()
+        self.tree = KinematicTree([*p_bodies, *arm_bodies], [*p_joints, *arm_joints])
+        self.platform_coordinates = tuple(platform.coordinates)
+        self.arm_coordinates = tuple(c for c in self.tree.coordinates if c not in platform.coordinates)
+        self.coordinates: tuple[str, ...] = self.platform_coordinates + self.arm_coordinates
+        if set(self.coordinates) != set(self.tree.coordinates):
+            raise ModelError(f"{name}: platform coordinates {platform.coordinates} not in tree")
+        self.n = len(self.coordinates)
+        self.n_platform = len(self.platform_coordinates)
+        self.h = platform.n_constraints
+        self.arm_indices = tuple(range(self.n_platform, self.n))
+        self.actuators: tuple[str, ...] = tuple(platform.actuators) + self.arm_coordinates
+        self.end_effector = end_effector
+        self.collision = tuple(collision)
+        self.friction = dict(friction or {})
+        for body in {end_effector.body} | {c.body for c in self.collision}:
+            if body not in self.tree.bodies:
+                raise ModelError(f"{name}: unknown body {body!r}")
+        self.limits = limits
+        self._check_limits(limits)
+        self._shared: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ limits
+    def _check_limits(self, limits: Limits) -> None:
+        n_arm, n_act = len(self.arm_coordinates), len(self.actuators)
+        for key, arr, size in (
+            ("limits.joints.min", limits.joint_min, n_arm),
+            ("limits.joints.max", limits.joint_max, n_arm),
+            ("limits.torque.min", limits.torque_min, n_act),
+            ("limits.torque.max", limits.torque_max, n_act),
+        ):
+            if np.shape(arr) != (size,):
+                raise InputError(key, f"expected {size} values for {self.name}, got {np.shape(arr)}")
+            if np.isnan(arr).any():
+                raise InputError(key, "contains NaN")
+        for key, lo, hi in (
+            ("limits.joints", limits.joint_min, limits.joint_max),
+            ("limits.torque", limits.torque_min, limits.torque_max),
+        ):
+            bad = np.flatnonzero(np.asarray(lo) > np.asarray(hi))
+            if bad.size:
+                i = int(bad[0])
+                raise InputError(f"{key}.min[{i}]", f"min {lo[i]} > max {hi[i]}")
+
+    def with_limits(self, limits: Limits) -> Robot:
+        """A copy with other limits, sharing the symbolic model and compiled functions."""
+        self._check_limits(limits)
+        other = copy.copy(self)
+        other.limits = limits
+        return other
+
+    # ------------------------------------------------------------------ symbols
+    @property
+    def symbols(self) -> Symbols:
+        """Symbolic model, built on first use and shared by copies."""
+        if "symbols" not in self._shared:
+            self._shared["symbols"] = self._build_symbols()
+        sym: Symbols = self._shared["symbols"]
+        return sym
+
+    def _build_symbols(self) -> Symbols:
+        n = self.n
+        q, dq, ddq = ca.SX.sym("q", n), ca.SX.sym("dq", n), ca.SX.sym("ddq", n)
+        values = {name: q[i] for i, name in enumerate(self.coordinates)}
+        T = self.tree.world_transforms(values)
+        T_ee = T[self.end_effector.body]
+        ee = T_ee[:3, :3] @ ca.DM(self.end_effector.offset) + T_ee[:3, 3]
+        J = ca.jacobian(ee, q)
+        J_a = J[:, list(self.arm_indices)]
+        qp = q[: self.n_platform]
+        n_arm = n - self.n_platform
+        A = ca.horzcat(self.platform.pfaffian(qp), ca.SX.zeros(self.h, n_arm))
+        N = ca.diagcat(self.platform.null_basis(qp), ca.SX.eye(n_arm))
+        B = ca.diagcat(self.platform.actuation(qp), ca.SX.eye(n_arm))
+        M = dynamics.mass_matrix(self.tree, q, T)
+        V = dynamics.potential_energy(self.tree, T)
+        friction = {self.coordinates.index(k): f for k, f in self.friction.items()}
+        c = dynamics.bias_forces(M, V, q, dq, friction)
+        mu = ca.sqrt(ca.det(J_a @ J_a.T))
+        points = [T[s.body][:3, :3] @ ca.DM(s.center) + T[s.body][:3, 3] for s in self.collision]
+        P = ca.horzcat(*points) if points else ca.SX(3, 0)
+        tau = ca.solve(N.T @ B, N.T @ (M @ ddq + c))
+        return Symbols(q, dq, ddq, T, ee, T_ee[:3, :3], J, J_a, A, N, B, M, c, mu, P, tau)
+
+    @property
+    def functions(self) -> dict[str, ca.Function]:
+        """Compiled CasADi functions, by name (built on first use, shared by copies).
+
+        ``ee_position(q)``, ``jacobian(q)``, ``pfaffian(q)``, ``null_basis(q)``,
+        ``actuation(q)``, ``mass_matrix(q)``, ``bias(q, dq)``, ``manipulability(q)``,
+        ``collision_points(q)``, ``tau(q, dq, ddq)``.
+        """
+        if "functions" not in self._shared:
+            s = self.symbols
+            q, dq, ddq = s.q, s.dq, s.ddq
+            f = {
+                "ee_position": ca.Function("ee_position", [q], [s.ee_position]),
+                "jacobian": ca.Function("jacobian", [q], [s.jacobian]),
+                "pfaffian": ca.Function("pfaffian", [q], [s.pfaffian]),
+                "null_basis": ca.Function("null_basis", [q], [s.null_basis]),
+                "actuation": ca.Function("actuation", [q], [s.actuation]),
+                "mass_matrix": ca.Function("mass_matrix", [q], [s.mass_matrix]),
+                "bias": ca.Function("bias", [q, dq], [s.bias]),
+                "manipulability": ca.Function("manipulability", [q], [s.manipulability]),
+                "collision_points": ca.Function("collision_points", [q], [s.collision_points]),
+                "tau": ca.Function("tau", [q, dq, ddq], [s.tau]),
+            }
+            self._shared["functions"] = f
+        out: dict[str, ca.Function] = self._shared["functions"]
+        return out
+
+    # ------------------------------------------------------------------ numpy API
+    def _q(self, q: ArrayLike, name: str = "q") -> Array:
+        arr = np.asarray(q, dtype=float)
+        if arr.shape != (self.n,):
+            raise InputError(name, f"expected {self.n} values {self.coordinates}, got shape {arr.shape}")
+        return arr
+
+    def _call(self, fn: str, *args: Array) -> Array:
+        return np.asarray(self.functions[fn](*args), dtype=float)
+
+    def ee_position(self, q: ArrayLike) -> Array:
+        """End-effector position k(q) [m], (3,)."""
+        return self._call("ee_position", self._q(q)).reshape(3)
+
+    def jacobian(self, q: ArrayLike) -> Array:
+        """J(q) = dk/dq, (3, n)."""
+        return self._call("jacobian", self._q(q))
+
+    def pfaffian(self, q: ArrayLike) -> Array:
+        """A(q), (h, n)."""
+        return self._call("pfaffian", self._q(q)).reshape(self.h, self.n)
+
+    def null_basis(self, q: ArrayLike) -> Array:
+        """N(q), (n, n - h), columns spanning ker A(q)."""
+        return self._call("null_basis", self._q(q))
+
+    def actuation(self, q: ArrayLike) -> Array:
+        """B(q), (n, n_act)."""
+        return self._call("actuation", self._q(q))
+
+    def mass_matrix(self, q: ArrayLike) -> Array:
+        """M(q), (n, n)."""
+        return self._call("mass_matrix", self._q(q))
+
+    def bias(self, q: ArrayLike, dq: ArrayLike) -> Array:
+        """c(q, dq): Coriolis, centrifugal, gravity, friction, (n,)."""
+        return self._call("bias", self._q(q), self._q(dq, "dq")).reshape(self.n)
+
+    def manipulability(self, q: ArrayLike) -> float:
+        """mu(q) = sqrt(det(J_a J_a^T))."""
+        return float(self._call("manipulability", self._q(q)).item())
+
+    def collision_points(self, q: ArrayLike) -> Array:
+        """World positions of the collision spheres' centres, (P, 3) (one row a point)."""
+        P = self._call("collision_points", self._q(q)).reshape(3, len(self.collision))
+        return np.ascontiguousarray(P.T)
+
+    @cached_property
+    def collision_radii(self) -> Array:
+        """Radii of the collision spheres, (P,)."""
+        return np.array([s.radius for s in self.collision], dtype=float)
+
+    def actuator_efforts(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> Array:
+        """tau = (N^T B)^-1 N^T (M ddq + c) (eq. (20) of 000), (n_act,)."""
+        out = self._call("tau", self._q(q), self._q(dq, "dq"), self._q(ddq, "ddq"))
+        return out.reshape(len(self.actuators))
+
+    def body_positions(self, q: ArrayLike) -> dict[str, Array]:
+        """World origin (3,) of every body (for drawing)."""
+        if "bodies_fn" not in self._shared:
+            s = self.symbols
+            names = [b for b in self.tree.bodies if not b.startswith("_")]
+            outs = [s.transforms[b][:3, 3] for b in names]
+            self._shared["bodies_fn"] = (names, ca.Function("bodies", [s.q], [ca.horzcat(*outs)]))
+        names, fn = self._shared["bodies_fn"]
+        P = np.asarray(fn(self._q(q)), dtype=float)
+        return {name: P[:, i] for i, name in enumerate(names)}
+
+    def index(self, coordinate: str) -> int:
+        """Position of ``coordinate`` in q."""
+        try:
+            return self.coordinates.index(coordinate)
+        except ValueError:
+            raise InputError("coordinate", f"unknown {coordinate!r}; known: {self.coordinates}") from None
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, n={self.n}, h={self.h}, coordinates={self.coordinates})"

@@ -1,0 +1,1 @@
+"""Obstacles and scenes (written by the scene module owner)."""
