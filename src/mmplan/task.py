@@ -107,3 +107,80 @@ class DrawSegment(Task):
     def errors(self, t: Array, ee: Array) -> Array:
         ref = np.array([self.point(float(s)) for s in t])
         return np.asarray(np.linalg.norm(ee - ref, axis=1), dtype=float)
+
+
+def _smoothstep5(tau: Array) -> tuple[Array, Array]:
+    """Quintic blend s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 and ds/dtau on [0, 1].
+
+    s(0) = 0, s(1) = 1, and s' = s'' = 0 at both ends (rest-to-rest blend).
+    """
+    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    ds = 30.0 * tau**2 * (1.0 - tau) ** 2
+    return s, ds
+
+
+@dataclass(frozen=True)
+class WaypointPath(TrackPath):
+    """Waypoints ``points[i]`` (K, 3) [m] reached at ``times[i]`` (K,) [s], strictly increasing.
+
+    Time law: between waypoints i and i + 1, with tau = (t - t_i) / (t_{i+1} - t_i),
+    X_d(t) = P_i + s(tau) (P_{i+1} - P_i) where s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 is the
+    quintic rest-to-rest blend: the path is C^2, stops at every waypoint (zero velocity and
+    acceleration there) and runs on straight segments between them. Before ``times[0]`` the
+    reference holds ``points[0]``, after ``times[-1]`` it holds ``points[-1]``;
+    ``duration = times[-1]``.
+    """
+
+    points: tuple[tuple[float, float, float], ...]
+    times: tuple[float, ...]
+    tolerance: float = 1e-3
+
+    @property
+    def duration(self) -> float:  # type: ignore[override]
+        return float(self.times[-1])
+
+    def _segment(self, t: float) -> tuple[int, float, float]:
+        """Segment index i, blend parameter tau in [0, 1] and 1 / (t_{i+1} - t_i)."""
+        times = np.asarray(self.times, dtype=float)
+        i = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2))
+        inv = 1.0 / (times[i + 1] - times[i])
+        tau = float(np.clip((t - times[i]) * inv, 0.0, 1.0))
+        return i, tau, inv
+
+    def position(self, t: float) -> Array:
+        i, tau, _ = self._segment(t)
+        p = np.asarray(self.points, dtype=float)
+        s, _ = _smoothstep5(np.asarray(tau))
+        return np.asarray(p[i] + float(s) * (p[i + 1] - p[i]), dtype=float)
+
+    def velocity(self, t: float) -> Array:
+        i, tau, inv = self._segment(t)
+        p = np.asarray(self.points, dtype=float)
+        _, ds = _smoothstep5(np.asarray(tau))
+        return np.asarray(float(ds) * inv * (p[i + 1] - p[i]), dtype=float)
+
+
+@dataclass(frozen=True)
+class PolynomialPath(TrackPath):
+    """Polynomial path X_d(t) = sum_k c_k t^k on [0, duration] [m], c_k = ``coefficients[k]`` (3,).
+
+    After ``duration`` the reference holds X_d(duration) (zero velocity); before 0 it holds
+    X_d(0).
+    """
+
+    coefficients: tuple[tuple[float, float, float], ...]
+    duration: float
+    tolerance: float = 1e-3
+
+    def position(self, t: float) -> Array:
+        s = float(np.clip(t, 0.0, self.duration))
+        c = np.asarray(self.coefficients, dtype=float)  # (K, 3)
+        powers = s ** np.arange(len(c), dtype=float)
+        return np.asarray(powers @ c, dtype=float)
+
+    def velocity(self, t: float) -> Array:
+        if t < 0.0 or t > self.duration:
+            return np.zeros(3)
+        c = np.asarray(self.coefficients, dtype=float)
+        k = np.arange(1, len(c), dtype=float)
+        return np.asarray((k * t ** (k - 1)) @ c[1:], dtype=float) if len(c) > 1 else np.zeros(3)

@@ -53,8 +53,13 @@ class Trajectory:
 
     def __post_init__(self) -> None:
         N, n = len(self.t), len(self.coordinates)
-        shapes: dict[str, tuple[int, ...]] = {"t": (N,), "q": (N, n), "dq": (N, n), "ddq": (N, n),
-                                              "ee": (N, 3)}
+        shapes: dict[str, tuple[int, ...]] = {
+            "t": (N,),
+            "q": (N, n),
+            "dq": (N, n),
+            "ddq": (N, n),
+            "ee": (N, 3),
+        }
         if self.tau is not None:
             shapes["tau"] = (N, len(self.actuators))
         if self.u is not None:
@@ -62,7 +67,9 @@ class Trajectory:
         for name, shape in shapes.items():
             value = getattr(self, name)
             if np.shape(value) != shape:
-                raise ModelError(f"Trajectory.{name}: expected shape {shape}, got {np.shape(value)}")
+                raise ModelError(
+                    f"Trajectory.{name}: expected shape {shape}, got {np.shape(value)}"
+                )
         for name, value in self.extra.items():
             if np.shape(value) != (N,):
                 raise ModelError(f"Trajectory.extra[{name!r}]: expected shape {(N,)}")
@@ -123,8 +130,10 @@ class PlanResult:
         message: One line for the user (why it stopped, where).
         compute_time_s: Wall-clock planning time [s].
         info: Planner-specific scalars for summary.json (iterations, max cond(E), ...).
-        history: Named per-iteration series (e.g. error norm per iteration), written to
-            history.csv.
+        history: Named per-iteration series of equal length (e.g. error norm per
+            iteration), written to history.csv.
+        artifacts: Named arrays of any shape for reports (e.g. manipulability grids),
+            written to artifacts.npz.
     """
 
     status: Status
@@ -134,6 +143,7 @@ class PlanResult:
     compute_time_s: float = 0.0
     info: Mapping[str, Any] = field(default_factory=dict)
     history: Mapping[str, Array] = field(default_factory=dict)
+    artifacts: Mapping[str, Array] = field(default_factory=dict)
 
     @property
     def reached(self) -> bool:

@@ -13,11 +13,11 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
+from mmplan.scene.scene import Scene
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
 from mmplan.robot.robot import Robot
-from mmplan.scene.scene import Scene
 from mmplan.task import Task
 from mmplan.trajectory import PlanResult
 
@@ -34,8 +34,12 @@ class PlannerSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     method: str
-    t_max: float = Field(120.0, gt=0, allow_inf_nan=False,
-                         description="simulated seconds (or iterations budget) before giving up")
+    t_max: float = Field(
+        120.0,
+        gt=0,
+        allow_inf_nan=False,
+        description="simulated seconds (or iterations budget) before giving up",
+    )
 
 
 @dataclass(frozen=True)

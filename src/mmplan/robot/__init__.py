@@ -1,6 +1,12 @@
 """Robot models: kinematic trees, platforms, dynamics and the built-in robots."""
 
-from mmplan.robot.bases import DifferentialDrive, KinematicCar, Omnidirectional, Platform, UnicycleDrive
+from mmplan.robot.bases import (
+    DifferentialDrive,
+    KinematicCar,
+    Omnidirectional,
+    Platform,
+    UnicycleDrive,
+)
 from mmplan.robot.library import get_robot, robot_names
 from mmplan.robot.robot import CollisionSphere, EndEffector, Limits, Robot
 

@@ -21,6 +21,8 @@ import casadi as ca
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
 
 PLATFORM = "platform"
+#: Steering assembly of a car: a 2 kg disc of radius 0.3 m about the vertical.
+STEERING_INERTIA = Inertial.disc(2.0, 0.3, axis=2)
 
 
 def _planar_joints(names: tuple[str, str, str]) -> list[Joint]:
@@ -28,8 +30,12 @@ def _planar_joints(names: tuple[str, str, str]) -> list[Joint]:
     x, y, yaw = names
     return [
         Joint(f"{x}_joint", JointKind.PRISMATIC, "world", "_slide_x", axis=(1, 0, 0), coordinate=x),
-        Joint(f"{y}_joint", JointKind.PRISMATIC, "_slide_x", "_slide_y", axis=(0, 1, 0), coordinate=y),
-        Joint(f"{yaw}_joint", JointKind.REVOLUTE, "_slide_y", PLATFORM, axis=(0, 0, 1), coordinate=yaw),
+        Joint(
+            f"{y}_joint", JointKind.PRISMATIC, "_slide_x", "_slide_y", axis=(0, 1, 0), coordinate=y
+        ),
+        Joint(
+            f"{yaw}_joint", JointKind.REVOLUTE, "_slide_y", PLATFORM, axis=(0, 0, 1), coordinate=yaw
+        ),
     ]
 
 
@@ -98,12 +104,23 @@ class DifferentialDrive(Platform):
 
     def bodies_and_joints(self) -> tuple[list[Body], list[Joint]]:
         r, d = self.wheel_radius, self.half_track
-        bodies = [*_planar_bodies(self.body), Body("wheel1", self.wheel), Body("wheel2", self.wheel)]
+        bodies = [
+            *_planar_bodies(self.body),
+            Body("wheel1", self.wheel),
+            Body("wheel2", self.wheel),
+        ]
         joints = _planar_joints(self.names[:3])
         for k, side in ((1, d), (2, -d)):
             joints.append(
-                Joint(f"wheel{k}_joint", JointKind.REVOLUTE, PLATFORM, f"wheel{k}",
-                      origin_xyz=(0.0, side, r), axis=(0, 1, 0), coordinate=self.names[2 + k])
+                Joint(
+                    f"wheel{k}_joint",
+                    JointKind.REVOLUTE,
+                    PLATFORM,
+                    f"wheel{k}",
+                    origin_xyz=(0.0, side, r),
+                    axis=(0, 1, 0),
+                    coordinate=self.names[2 + k],
+                )
             )
         return bodies, joints
 
@@ -174,6 +191,7 @@ class KinematicCar(Platform):
 
     length: float
     body: Inertial
+    steering: Inertial = STEERING_INERTIA
     names: tuple[str, str, str, str] = ("x", "y", "phi", "psi")
 
     @property
@@ -185,10 +203,18 @@ class KinematicCar(Platform):
         return ("drive", "steer")
 
     def bodies_and_joints(self) -> tuple[list[Body], list[Joint]]:
-        bodies = [*_planar_bodies(self.body), Body("steering")]
+        bodies = [*_planar_bodies(self.body), Body("steering", self.steering)]
         joints = _planar_joints(self.names[:3])
-        joints.append(Joint("steering_joint", JointKind.REVOLUTE, PLATFORM, "steering",
-                            origin_xyz=(self.length, 0.0, 0.0), coordinate=self.names[3]))
+        joints.append(
+            Joint(
+                "steering_joint",
+                JointKind.REVOLUTE,
+                PLATFORM,
+                "steering",
+                origin_xyz=(self.length, 0.0, 0.0),
+                coordinate=self.names[3],
+            )
+        )
         return bodies, joints
 
     def pfaffian(self, qp: ca.SX) -> ca.SX:

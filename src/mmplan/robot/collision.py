@@ -21,7 +21,7 @@ def _samples(length: float, spacing: float) -> np.ndarray:
 def points_on_segment(
     body: str, start: Sequence[float], end: Sequence[float], spacing: float, radius: float = 0.0
 ) -> list[CollisionSphere]:
-    """Points from ``start`` to ``end`` (body frame), both ends included, at most ``spacing`` apart."""
+    """Points from ``start`` to ``end`` (body frame), ends included, at most ``spacing`` apart."""
     a, b = np.asarray(start, float), np.asarray(end, float)
     out = []
     for s in _samples(float(np.linalg.norm(b - a)), spacing):

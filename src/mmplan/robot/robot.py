@@ -128,7 +128,9 @@ class Robot:
         p_bodies, p_joints = platform.bodies_and_joints()
         self.tree = KinematicTree([*p_bodies, *arm_bodies], [*p_joints, *arm_joints])
         self.platform_coordinates = tuple(platform.coordinates)
-        self.arm_coordinates = tuple(c for c in self.tree.coordinates if c not in platform.coordinates)
+        self.arm_coordinates = tuple(
+            c for c in self.tree.coordinates if c not in platform.coordinates
+        )
         self.coordinates: tuple[str, ...] = self.platform_coordinates + self.arm_coordinates
         if set(self.coordinates) != set(self.tree.coordinates):
             raise ModelError(f"{name}: platform coordinates {platform.coordinates} not in tree")
@@ -157,7 +159,9 @@ class Robot:
             ("limits.torque.max", limits.torque_max, n_act),
         ):
             if np.shape(arr) != (size,):
-                raise InputError(key, f"expected {size} values for {self.name}, got {np.shape(arr)}")
+                raise InputError(
+                    key, f"expected {size} values for {self.name}, got {np.shape(arr)}"
+                )
             if np.isnan(arr).any():
                 raise InputError(key, "contains NaN")
         for key, lo, hi in (
@@ -240,7 +244,9 @@ class Robot:
     def _q(self, q: ArrayLike, name: str = "q") -> Array:
         arr = np.asarray(q, dtype=float)
         if arr.shape != (self.n,):
-            raise InputError(name, f"expected {self.n} values {self.coordinates}, got shape {arr.shape}")
+            raise InputError(
+                name, f"expected {self.n} values {self.coordinates}, got shape {arr.shape}"
+            )
         return arr
 
     def _call(self, fn: str, *args: Array) -> Array:
@@ -309,7 +315,9 @@ class Robot:
         try:
             return self.coordinates.index(coordinate)
         except ValueError:
-            raise InputError("coordinate", f"unknown {coordinate!r}; known: {self.coordinates}") from None
+            raise InputError(
+                "coordinate", f"unknown {coordinate!r}; known: {self.coordinates}"
+            ) from None
 
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, n={self.n}, h={self.h}, coordinates={self.coordinates})"

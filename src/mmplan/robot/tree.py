@@ -67,7 +67,11 @@ class Inertial:
     def box(mass: float, size: Sequence[float], com: Sequence[float] = (0, 0, 0)) -> Inertial:
         """Uniform solid box with edge lengths ``size`` (x, y, z) centred at ``com``."""
         a, b, c = (float(s) for s in size)
-        diag = (mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12, mass * (a * a + b * b) / 12)
+        diag = (
+            mass * (b * b + c * c) / 12,
+            mass * (a * a + c * c) / 12,
+            mass * (a * a + b * b) / 12,
+        )
         return Inertial(mass, _vec3(com), _diag(diag))
 
     @staticmethod
@@ -92,7 +96,7 @@ def _vec3(v: Sequence[float]) -> tuple[float, float, float]:
 
 
 def _diag(d: Sequence[float]) -> tuple[tuple[float, float, float], ...]:
-    return tuple(tuple(float(d[i]) if i == j else 0.0 for j in range(3)) for i in range(3))
+    return tuple(_vec3([float(d[i]) if i == j else 0.0 for j in range(3)]) for i in range(3))
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ pi/2, 0, -pi/2, pi/2, -pi/2, 0), with the shoulder 0.45 m above the ground at th
 centre and a pen tool 0.10 m along the flange z axis. Each DH link i is modelled as a
 revolute joint about z followed by the fixed placement Tz(d_i) Tx(a_i) Rx(alpha_i), which
 becomes the origin of joint i+1. Joint limits are Corke's qlim; masses are nominal
-(004 is kinematic). The base is omnidirectional in the model (004 plans its path only).
+small boxes (004 is kinematic). The base is omnidirectional in the model (004 plans its path only).
 """
 
 from __future__ import annotations
@@ -45,13 +45,34 @@ def build() -> Robot:
     parent, origin_xyz, origin_rpy = PLATFORM, (0.0, 0.0, SHOULDER_HEIGHT), (0.0, 0.0, 0.0)
     for i, (d, a, alpha) in enumerate(dh_scaled(), start=1):
         name = f"link{i}"
-        bodies.append(Body(name, Inertial.point(1.0 if i < 4 else 0.2, (a / 2, 0.0, d / 2))))
-        joints.append(Joint(f"q{i}_joint", JointKind.REVOLUTE, parent, name, origin_xyz=origin_xyz,
-                            origin_rpy=origin_rpy, axis=(0, 0, 1), coordinate=f"q{i}"))
+        mass = 1.0 if i < 4 else 0.2
+        bodies.append(
+            Body(name, Inertial.box(mass, (0.05 + a, 0.05, 0.05 + d), (a / 2, 0.0, d / 2)))
+        )
+        joints.append(
+            Joint(
+                f"q{i}_joint",
+                JointKind.REVOLUTE,
+                parent,
+                name,
+                origin_xyz=origin_xyz,
+                origin_rpy=origin_rpy,
+                axis=(0, 0, 1),
+                coordinate=f"q{i}",
+            )
+        )
         parent, origin_xyz, origin_rpy = name, (a, 0.0, d), (alpha, 0.0, 0.0)
     bodies.append(Body("flange"))
-    joints.append(Joint("flange_joint", JointKind.FIXED, parent, "flange", origin_xyz=origin_xyz,
-                        origin_rpy=origin_rpy))
+    joints.append(
+        Joint(
+            "flange_joint",
+            JointKind.FIXED,
+            parent,
+            "flange",
+            origin_xyz=origin_xyz,
+            origin_rpy=origin_rpy,
+        )
+    )
     collision = [
         CollisionSphere(PLATFORM, (0.0, 0.0, 0.15), 0.35),
         *points_on_segment("link3", (0, 0, 0), (0, 0, SCALE * 0.4318), 0.05),

@@ -6,7 +6,7 @@ q = (x, y, phi, psi, x1, x2, x3); platform controls u = (u1, u2):
 x2 vertical prismatic, x3 rotation raising the last link, so that
 ``y = (x + (l2 + l3 cos x3) cos(phi + x1), y + (l2 + l3 cos x3) sin(phi + x1), x2 + l3 sin x3)``.
 l2 = l3 = 0.5 (not printed; SPEC section 1). The paper has no masses or limits: nominal
-masses (platform 10 kg box, links 1 kg rods) serve only for dynamics, and joint limits are
+masses (platform 10 kg box, links 1 kg rods and discs) serve only for dynamics, and joint limits are
 wide (+-2 pi for rotations, [-5, 5] m for x2) so that bounds come from the scenario.
 """
 
@@ -27,15 +27,22 @@ def build() -> Robot:
     """Build car-rtr."""
     platform = KinematicCar(length=LENGTH, body=Inertial.box(10.0, (1.2, 0.6, 0.2), (0.5, 0, 0.3)))
     bodies = [
-        Body("turret", Inertial.point(1.0)),
+        Body("turret", Inertial.disc(1.0, 0.1, axis=2)),
         Body("slider", Inertial.rod(1.0, L2, axis=0, com=(L2 / 2, 0.0, 0.0))),
         Body("forearm", Inertial.rod(1.0, L3, axis=0, com=(L3 / 2, 0.0, 0.0))),
     ]
     joints = [
         Joint("x1_joint", JointKind.REVOLUTE, PLATFORM, "turret", axis=(0, 0, 1), coordinate="x1"),
         Joint("x2_joint", JointKind.PRISMATIC, "turret", "slider", axis=(0, 0, 1), coordinate="x2"),
-        Joint("x3_joint", JointKind.REVOLUTE, "slider", "forearm", origin_xyz=(L2, 0.0, 0.0),
-              axis=(0, -1, 0), coordinate="x3"),
+        Joint(
+            "x3_joint",
+            JointKind.REVOLUTE,
+            "slider",
+            "forearm",
+            origin_xyz=(L2, 0.0, 0.0),
+            axis=(0, -1, 0),
+            coordinate="x3",
+        ),
     ]
     collision = [
         *points_on_box(PLATFORM, (0.5, 0.0, 0.3), (1.2, 0.6, 0.2), 0.3),

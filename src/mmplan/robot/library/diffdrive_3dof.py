@@ -25,19 +25,41 @@ DISC_AHEAD = 0.3
 
 def build() -> Robot:
     """Build diffdrive-3dof."""
-    platform = UnicycleDrive(body=Inertial.box(20.0, (0.7, 0.4, 0.2), (0.15, 0.0, 0.2)),
-                             names=("x", "y", "phi"))
+    platform = UnicycleDrive(
+        body=Inertial.box(20.0, (0.7, 0.4, 0.2), (0.15, 0.0, 0.2)), names=("x", "y", "phi")
+    )
     bodies = [
         Body("link1", Inertial.rod(2.0, L1, axis=2, com=(0.0, 0.0, L1 / 2))),
         Body("link2", Inertial.rod(1.5, L2, axis=0, com=(L2 / 2, 0.0, 0.0))),
         Body("link3", Inertial.rod(1.0, L3, axis=0, com=(L3 / 2, 0.0, 0.0))),
     ]
     joints = [
-        Joint("theta1_joint", JointKind.REVOLUTE, PLATFORM, "link1", axis=(0, 0, 1), coordinate="theta1"),
-        Joint("theta2_joint", JointKind.REVOLUTE, "link1", "link2", origin_xyz=(0.0, 0.0, L1),
-              axis=(0, 1, 0), coordinate="theta2"),
-        Joint("theta3_joint", JointKind.REVOLUTE, "link2", "link3", origin_xyz=(L2, 0.0, 0.0),
-              axis=(0, 1, 0), coordinate="theta3"),
+        Joint(
+            "theta1_joint",
+            JointKind.REVOLUTE,
+            PLATFORM,
+            "link1",
+            axis=(0, 0, 1),
+            coordinate="theta1",
+        ),
+        Joint(
+            "theta2_joint",
+            JointKind.REVOLUTE,
+            "link1",
+            "link2",
+            origin_xyz=(0.0, 0.0, L1),
+            axis=(0, 1, 0),
+            coordinate="theta2",
+        ),
+        Joint(
+            "theta3_joint",
+            JointKind.REVOLUTE,
+            "link2",
+            "link3",
+            origin_xyz=(L2, 0.0, 0.0),
+            axis=(0, 1, 0),
+            coordinate="theta3",
+        ),
     ]
     collision = [
         CollisionSphere(PLATFORM, (0.0, 0.0, 0.0), DISC_RADIUS),

@@ -31,12 +31,33 @@ def build() -> Robot:
         Body("link3", Inertial.rod(1.0, A3, axis=0, com=(A3 / 2, 0.0, 0.0))),
     ]
     joints = [
-        Joint("qa1_joint", JointKind.REVOLUTE, PLATFORM, "link1", origin_xyz=(*MOUNT, 0.0),
-              axis=(0, 0, 1), coordinate="qa1"),
-        Joint("qa2_joint", JointKind.REVOLUTE, "link1", "link2", origin_xyz=(0.0, 0.0, A1),
-              axis=(0, 1, 0), coordinate="qa2"),
-        Joint("qa3_joint", JointKind.REVOLUTE, "link2", "link3", origin_xyz=(A2, 0.0, 0.0),
-              axis=(0, 1, 0), coordinate="qa3"),
+        Joint(
+            "qa1_joint",
+            JointKind.REVOLUTE,
+            PLATFORM,
+            "link1",
+            origin_xyz=(*MOUNT, 0.0),
+            axis=(0, 0, 1),
+            coordinate="qa1",
+        ),
+        Joint(
+            "qa2_joint",
+            JointKind.REVOLUTE,
+            "link1",
+            "link2",
+            origin_xyz=(0.0, 0.0, A1),
+            axis=(0, 1, 0),
+            coordinate="qa2",
+        ),
+        Joint(
+            "qa3_joint",
+            JointKind.REVOLUTE,
+            "link2",
+            "link3",
+            origin_xyz=(A2, 0.0, 0.0),
+            axis=(0, 1, 0),
+            coordinate="qa3",
+        ),
     ]
     collision = [
         CollisionSphere(PLATFORM, (0.0, 0.0, 0.0), PLATFORM_RADIUS),

@@ -53,11 +53,27 @@ def build() -> Robot:
     ]
     joints = [
         Joint("arm_mount", JointKind.FIXED, PLATFORM, "arm_base", origin_xyz=MOUNT),
-        Joint("q1_joint", JointKind.REVOLUTE, "arm_base", "link1", axis=(0, 0, -1), coordinate="q1"),
-        Joint("q2_joint", JointKind.REVOLUTE, "link1", "link2", origin_xyz=(L1, 0.0, rise),
-              axis=(0, 1, 0), coordinate="q2"),
-        Joint("q3_joint", JointKind.REVOLUTE, "link2", "link3", origin_xyz=(L2, 0.0, 0.0),
-              axis=(0, 1, 0), coordinate="q3"),
+        Joint(
+            "q1_joint", JointKind.REVOLUTE, "arm_base", "link1", axis=(0, 0, -1), coordinate="q1"
+        ),
+        Joint(
+            "q2_joint",
+            JointKind.REVOLUTE,
+            "link1",
+            "link2",
+            origin_xyz=(L1, 0.0, rise),
+            axis=(0, 1, 0),
+            coordinate="q2",
+        ),
+        Joint(
+            "q3_joint",
+            JointKind.REVOLUTE,
+            "link2",
+            "link3",
+            origin_xyz=(L2, 0.0, 0.0),
+            axis=(0, 1, 0),
+            coordinate="q3",
+        ),
     ]
     collision = [
         *points_on_box(PLATFORM, (0.0, 0.0, PLATFORM_HEIGHT), PLATFORM_SIZE, SPACING),
