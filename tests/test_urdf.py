@@ -70,9 +70,9 @@ def test_urdf_limits_come_from_the_file() -> None:
 
 def test_urdf_errors_name_the_field() -> None:
     builtin = get_robot("youbot-3r")
-    with pytest.raises(InputError, match="robot.ee_link"):
+    with pytest.raises(InputError, match=r"robot\.ee_link"):
         robot_from_urdf(youbot_arm_urdf(), builtin.platform, "gripper")
-    with pytest.raises(InputError, match="robot.urdf"):
+    with pytest.raises(InputError, match=r"robot\.urdf"):
         robot_from_urdf("/no/such/file.urdf", builtin.platform, "tool")
-    with pytest.raises(InputError, match="robot.urdf"):
+    with pytest.raises(InputError, match=r"robot\.urdf"):
         robot_from_urdf("<robot name='x'><link></robot>", builtin.platform, "tool")
