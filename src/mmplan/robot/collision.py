@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mmplan.robot.robot import CollisionSphere
 
@@ -19,7 +20,7 @@ def _samples(length: float, spacing: float) -> np.ndarray:
 
 
 def points_on_segment(
-    body: str, start: Sequence[float], end: Sequence[float], spacing: float, radius: float = 0.0
+    body: str, start: ArrayLike, end: ArrayLike, spacing: float, radius: float = 0.0
 ) -> list[CollisionSphere]:
     """Points from ``start`` to ``end`` (body frame), ends included, at most ``spacing`` apart."""
     a, b = np.asarray(start, float), np.asarray(end, float)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -37,15 +38,15 @@ def _pinocchio():  # type: ignore[no-untyped-def]
     return pinocchio
 
 
-def _joint_kind_and_axis(model_joint: object) -> tuple[JointKind, tuple[float, float, float]]:
-    name = model_joint.shortname()  # type: ignore[attr-defined]
+def _joint_kind_and_axis(model_joint: Any) -> tuple[JointKind, tuple[float, float, float]]:
+    name = model_joint.shortname()
     for prefix, kind in (("JointModelR", JointKind.REVOLUTE), ("JointModelP", JointKind.PRISMATIC)):
         if name.startswith(prefix):
             suffix = name[len(prefix) :]
             if suffix in _AXES:
                 return kind, _AXES[suffix]
             if suffix in ("evoluteUnaligned", "rismaticUnaligned"):
-                concrete = model_joint.extract()  # type: ignore[attr-defined]
+                concrete = model_joint.extract()
                 axis = np.asarray(concrete.axis, dtype=float)
                 return kind, (float(axis[0]), float(axis[1]), float(axis[2]))
             if suffix.startswith("UB"):
@@ -53,15 +54,21 @@ def _joint_kind_and_axis(model_joint: object) -> tuple[JointKind, tuple[float, f
     raise InputError("robot.urdf", f"joint type {name} is not supported (revolute/prismatic only)")
 
 
-def _xyz_rpy(placement: object) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+def _xyz_rpy(placement: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     pin = _pinocchio()
-    t = np.asarray(placement.translation, dtype=float)  # type: ignore[attr-defined]
-    rpy = pin.rpy.matrixToRpy(placement.rotation)  # type: ignore[attr-defined]
+    t = np.asarray(placement.translation, dtype=float)
+    rpy = pin.rpy.matrixToRpy(placement.rotation)
     return (float(t[0]), float(t[1]), float(t[2])), (float(rpy[0]), float(rpy[1]), float(rpy[2]))
 
 
-def _vec(v: Sequence[float]) -> tuple[float, float, float]:
+def _vec(v: Any) -> tuple[float, float, float]:
     return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _inertial(inertia: Any) -> Inertial:
+    """mmplan Inertial from a Pinocchio Inertia (mass, lever = com, inertia about the com)."""
+    rows = tuple(_vec(row) for row in np.asarray(inertia.inertia, dtype=float))
+    return Inertial(float(inertia.mass), _vec(inertia.lever), rows)
 
 
 def robot_from_urdf(
@@ -115,9 +122,7 @@ def robot_from_urdf(
     joints: list[Joint] = []
     root = model.inertias[0]  # links fixed to the URDF root ride on the platform
     if root.mass > 0:
-        lever = (float(root.lever[0]), float(root.lever[1]), float(root.lever[2]))
-        rows = tuple(tuple(float(v) for v in row) for row in np.asarray(root.inertia))
-        bodies.append(Body(prefix + "root", Inertial(float(root.mass), lever, rows)))  # type: ignore[arg-type]
+        bodies.append(Body(prefix + "root", _inertial(root)))
         joints.append(
             Joint(
                 f"{prefix}root_joint",
@@ -140,11 +145,7 @@ def robot_from_urdf(
             placement = mount * placement
         xyz, rpy = _xyz_rpy(placement)
         inertia = model.inertias[jid]
-        inertial = Inertial(
-            float(inertia.mass),
-            (float(inertia.lever[0]), float(inertia.lever[1]), float(inertia.lever[2])),
-            tuple(tuple(float(v) for v in row) for row in np.asarray(inertia.inertia)),  # type: ignore[arg-type]
-        )
+        inertial = _inertial(inertia)
         body = prefix + model.names[jid]
         coordinate = model.names[jid]
         bodies.append(Body(body, inertial))
