@@ -147,3 +147,14 @@ def test_collision_points_follow_the_platform(name: str) -> None:
     q[0], q[1] = 1.5, -2.0
     np.testing.assert_allclose(robot.collision_points(q), P0 + [1.5, -2.0, 0.0], atol=1e-12)
     assert P0.shape == (len(robot.collision), 3)
+
+
+def test_base_6dof_pose_manipulability_matches_closed_form(rng: np.random.Generator) -> None:
+    """The tree's 6x6 tool-Jacobian measure equals 004's closed form a2 |s5| |d4 c3 + a3 s3| |r|."""
+    from mmplan.planners.puma_ik import PumaGeometry, manipulability
+
+    robot = get_robot("base-6dof")
+    Q = rng.uniform(-np.pi, np.pi, size=(100, 9))
+    expected = manipulability(PumaGeometry.base_6dof(), Q[:, 3:])
+    fn = robot.functions["manipulability"].map(Q.shape[0])
+    np.testing.assert_allclose(np.asarray(fn(Q.T)).ravel(), expected, atol=1e-12)

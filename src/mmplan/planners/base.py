@@ -13,11 +13,11 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from mmplan.scene.scene import Scene
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
 from mmplan.robot.robot import Robot
+from mmplan.scene.scene import Scene
 from mmplan.task import Task
 from mmplan.trajectory import PlanResult
 

@@ -8,7 +8,9 @@ Symbols (all expressions in the generalized coordinates q (n,), platform part fi
 * k(q) end-effector position (3,), J = dk/dq (3, n), J_a its arm columns (3, n_a);
 * A(q) Pfaffian matrix (h, n), N(q) basis of ker A (n, n - h), B(q) actuation (n, n - h);
 * M(q) (n, n), c(q, dq) (n,) from :mod:`mmplan.robot.dynamics`;
-* manipulability mu(q) = sqrt(det(J_a J_a^T)) (Yoshikawa; eq. (5) of 000);
+* manipulability mu(q) = sqrt(det(J_a J_a^T)) (Yoshikawa; eq. (5) of 000), with J_a the
+  arm's position Jacobian, or its full 6-row tool Jacobian for ``EndEffector(manipulability=
+  "pose")`` (paper 004);
 * actuator efforts tau = (N^T B)^{-1} N^T (M ddq + c) (eq. (20) of 000): the efforts that
   realise ddq when the constraint forces A^T lambda are eliminated (N^T A^T = 0).
 """
@@ -67,10 +69,22 @@ class Limits:
 
 @dataclass(frozen=True)
 class EndEffector:
-    """End-effector point: ``offset`` [m] in the frame of ``body``."""
+    """End-effector point: ``offset`` [m] in the frame of ``body``.
+
+    ``manipulability`` selects the arm Jacobian of the measure mu = sqrt(det(J_a J_a^T)):
+    ``"position"`` (3, n_arm), the measure of papers 000/003 for a point task, or ``"pose"``
+    (6, n_arm: linear and angular velocity of the tool), paper 004's measure for a 6-dof arm.
+    """
 
     body: str
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    manipulability: str = "position"
+
+    def __post_init__(self) -> None:
+        if self.manipulability not in ("position", "pose"):
+            raise ModelError(
+                f"EndEffector.manipulability: {self.manipulability!r} not position/pose"
+            )
 
 
 @dataclass
@@ -207,7 +221,11 @@ class Robot:
         V = dynamics.potential_energy(self.tree, T)
         friction = {self.coordinates.index(k): f for k, f in self.friction.items()}
         c = dynamics.bias_forces(M, V, q, dq, friction)
-        mu = ca.sqrt(ca.det(J_a @ J_a.T))
+        J_mu = J_a
+        if self.end_effector.manipulability == "pose":
+            J_w = dynamics.angular_jacobian(T_ee[:3, :3], q)[:, list(self.arm_indices)]
+            J_mu = ca.vertcat(J_a, J_w)
+        mu = ca.sqrt(ca.det(J_mu @ J_mu.T))
         points = [T[s.body][:3, :3] @ ca.DM(s.center) + T[s.body][:3, 3] for s in self.collision]
         P = ca.horzcat(*points) if points else ca.SX(3, 0)
         tau = ca.solve(N.T @ B, N.T @ (M @ ddq + c))

@@ -1,1 +1,25 @@
-"""Obstacles and scenes (written by the scene module owner)."""
+"""Obstacles and scenes (SPEC section 2).
+
+Shapes: :class:`Superellipsoid` (Barr; the smooth model all planners use), :class:`Sphere`,
+:class:`Cylinder` (vertical), :class:`Box` (yawed). Each gives an exact signed distance for
+the checker and a superellipsoid model for planners; :func:`obstacle_from_dict` builds one
+from its scenario form.
+"""
+
+from mmplan.scene.box import Box
+from mmplan.scene.cylinder import Cylinder
+from mmplan.scene.obstacle import Obstacle, obstacle_from_dict, shape_names
+from mmplan.scene.scene import Scene
+from mmplan.scene.sphere import Sphere
+from mmplan.scene.superellipsoid import Superellipsoid
+
+__all__ = [
+    "Box",
+    "Cylinder",
+    "Obstacle",
+    "Scene",
+    "Sphere",
+    "Superellipsoid",
+    "obstacle_from_dict",
+    "shape_names",
+]

@@ -6,7 +6,9 @@ pi/2, 0, -pi/2, pi/2, -pi/2, 0), with the shoulder 0.45 m above the ground at th
 centre and a pen tool 0.10 m along the flange z axis. Each DH link i is modelled as a
 revolute joint about z followed by the fixed placement Tz(d_i) Tx(a_i) Rx(alpha_i), which
 becomes the origin of joint i+1. Joint limits are Corke's qlim; masses are nominal
-small boxes (004 is kinematic). The base is omnidirectional in the model (004 plans its path only).
+small boxes (004 is kinematic). Manipulability is 004's w = sqrt(det(J J^T)) of the 6x6 tool
+Jacobian of the arm (``manipulability="pose"``). The base is omnidirectional in the model
+(004 plans its path only).
 """
 
 from __future__ import annotations
@@ -88,7 +90,7 @@ def build() -> Robot:
         platform,
         bodies,
         joints,
-        EndEffector("flange", (0.0, 0.0, TOOL)),
+        EndEffector("flange", (0.0, 0.0, TOOL), manipulability="pose"),
         limits,
         collision,
         description="PUMA 560 (scaled 0.4) on a planar base, paper 004 (manipulability area).",

@@ -1,0 +1,254 @@
+"""The ``mmplan`` command: list robots and scenarios, plan a scenario, check a written plan.
+
+A thin layer over the public API. No traceback reaches the user: an
+:class:`~mmplan.errors.MmplanError` prints ``error: <one line>`` and exits with its code
+(2 bad input, 3 planning failed); anything else exits 1 with a hint to report it.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, NoReturn
+
+import click
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+import mmplan
+from mmplan.errors import MmplanError
+
+ISSUES_HINT = "this is a bug in mmplan; please report it with the command you ran"
+PROGRESS_DELAY_S = 1.0
+
+out = Console(highlight=False, soft_wrap=True)
+err = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+def _fail(message: str, code: int) -> NoReturn:
+    err.print(f"error: {message}", markup=False, soft_wrap=True)
+    raise SystemExit(code)
+
+
+@contextmanager
+def _user_errors() -> Iterator[None]:
+    """Turn every exception into one line on stderr and an exit code."""
+    try:
+        yield
+    except MmplanError as exc:
+        _fail(str(exc), exc.exit_code)
+    except KeyboardInterrupt:
+        _fail("interrupted", 130)
+    except (SystemExit, click.exceptions.Exit, click.ClickException):
+        raise
+    except Exception as exc:
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        _fail(f"internal error: {type(exc).__name__}: {first} ({ISSUES_HINT})", 1)
+
+
+def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}{unit}"
+    return f"{value}{unit}"
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(mmplan.__version__, prog_name="mmplan")
+def main() -> None:
+    """Whole-body trajectory planning for mobile manipulators.
+
+    \b
+    Typical session:
+      mmplan robots                                  # built-in robots
+      mmplan scenarios                               # built-in scenarios
+      mmplan plan youbot3r-obstacles --out run1      # plan, write run1/
+      mmplan check run1                              # re-verify run1/ independently
+
+    A scenario is a built-in name or a YAML file (see SPEC section 8). Exit codes:
+    0 success, 2 bad input, 3 planned but the task was not reached / check failed,
+    1 internal error.
+    """
+
+
+@main.command()
+def robots() -> None:
+    """List the built-in robots (name, n coordinates, h constraints, coordinates)."""
+    with _user_errors():
+        table = Table("robot", "n", "h", "coordinates", "description")
+        for name in mmplan.robot_names():
+            r = mmplan.get_robot(name)
+            table.add_row(name, str(r.n), str(r.h), " ".join(r.coordinates), r.description)
+        out.print(table)
+
+
+@main.command()
+def scenarios() -> None:
+    """List the built-in scenarios (robot, planning method, whether the method is installed)."""
+    with _user_errors():
+        table = Table("scenario", "robot", "method", "available")
+        available = set(mmplan.methods())
+        for name, path in mmplan.builtin_scenarios().items():
+            try:
+                robot, method = mmplan.scenario_header(path)
+            except mmplan.InputError as exc:
+                table.add_row(name, "?", "?", f"invalid file: {exc.problem}")
+                continue
+            table.add_row(name, robot, method, "yes" if method in available else "no")
+        out.print(table)
+
+
+class _Bar:
+    """Progress callback that shows a rich bar once planning has run for a second."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.start = time.perf_counter()
+        self.progress: Progress | None = None
+        self.task: Any = None
+
+    def __call__(self, fraction: float) -> None:
+        if not self.enabled:
+            return
+        if self.progress is None:
+            if time.perf_counter() - self.start < PROGRESS_DELAY_S:
+                return
+            self.progress = Progress(TextColumn("planning"), BarColumn(), TaskProgressColumn(),
+                                     TimeElapsedColumn(), console=err, transient=True)
+            self.progress.start()
+            self.task = self.progress.add_task("plan", total=1.0)
+        self.progress.update(self.task, completed=min(max(float(fraction), 0.0), 1.0))
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+
+
+@main.command()
+@click.argument("scenario")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Directory to write (replaced atomically if it exists).")
+@click.option("--format", "fmt", type=click.Choice(["csv", "npz"]), default="csv",
+              show_default=True, help="npz also writes trajectory.npz next to trajectory.csv.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar and no metrics; exit code only.")
+def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool) -> None:
+    """Plan SCENARIO (a built-in name or a YAML file) and write the plan to --out.
+
+    Writes OUT/trajectory.csv (one row per sample), OUT/summary.json (status and metrics
+    recomputed by the independent checker) and OUT/scenario.yaml (the scenario with every
+    default filled in). Examples:
+
+    \b
+      mmplan plan youbot3r-obstacles --out runs/youbot
+      mmplan plan my_scenario.yaml --out runs/mine --format npz
+
+    A minimal scenario file (start lists the coordinates shown by `mmplan robots`):
+
+    \b
+      name: my-reach
+      robot: youbot-3r
+      start: [0, 0, 0, 0, 0, 0, -0.17, 0.35]
+      goal: {position: [1.5, 0.5, 0.3], tolerance: 0.001}
+      obstacles:
+        - {shape: sphere, center: [1.0, 0.3, 0.4], radius: 0.1}
+      planner: {method: extended-jacobian, t_max: 60}
+
+    Exit code 0 when the task was reached, 3 when planning ended without reaching it
+    (summary.json says why), 2 for bad input.
+    """
+    with _user_errors():
+        sc = mmplan.load_scenario(scenario)
+        problem = sc.build()
+        planner = mmplan.get_planner(sc.method)()
+        bar = _Bar(enabled=not quiet)
+        try:
+            result = planner.plan(problem, progress=bar)
+        except mmplan.ScenarioError:
+            raise
+        except mmplan.InputError as exc:  # a planner's own check of the scenario: name the file
+            raise mmplan.ScenarioError(sc.source, exc.field, exc.problem) from None
+        finally:
+            bar.close()
+        written = mmplan.write_plan(out_dir, result, problem, sc, fmt=fmt)
+        if not quiet:
+            _print_plan(result, mmplan.read_summary(written), written)
+        if not result.reached:
+            raise SystemExit(3)
+
+
+def _print_plan(result: mmplan.PlanResult, summary: dict[str, Any], written: Path) -> None:
+    """Status line and the checker's key metrics (as written to summary.json)."""
+    out.print(f"status: {result.status.value}" + (f" ({result.message})" if result.message else ""),
+              markup=False)
+    rows = [("T(1 cm)", _fmt(summary.get("duration_1cm_s"), " s")),
+            ("T(1 mm)", _fmt(summary.get("duration_1mm_s"), " s")),
+            ("final error", _fmt(summary.get("final_error_m"), " m")),
+            ("min clearance", _fmt(summary.get("min_clearance_m"), " m")),
+            ("compute time", _fmt(summary.get("compute_time_s"), " s", 3))]
+    for label, value in rows:
+        out.print(f"{label + ':':15s}{value}", markup=False)
+    out.print(f"written to {written}", markup=False)
+
+
+@main.command(name="check")
+@click.argument("directory", type=click.Path(path_type=Path))
+def check_cmd(directory: Path) -> None:
+    """Re-verify the plan in DIRECTORY independently of the planner that made it.
+
+    Recomputes from q alone: end effector by forward kinematics, clearance to the original
+    obstacles by exact geometry, joint and torque limits, Pfaffian residual |A(q) dq|,
+    dq against q, completion times T(1 cm), T(1 mm); and checks that the status in
+    summary.json agrees with the task error. Example:
+
+    \b
+      mmplan check runs/youbot
+
+    Exit code 0 when every check holds, 3 naming each failed check, 2 on unreadable input.
+    """
+    with _user_errors():
+        trajectory, sc = mmplan.read_plan(directory)
+        claimed = mmplan.read_summary(directory)
+        status = claimed.get("status")
+        report = mmplan.check(trajectory, sc.build(),
+                              status=None if status is None else str(status))
+        _print_check(report)
+        failures = report.failures()
+        for line in failures:
+            err.print(f"FAIL {line}", markup=False, soft_wrap=True)
+        if failures:
+            raise SystemExit(3)
+        out.print("check passed", markup=False)
+
+
+def _print_check(report: mmplan.CheckReport) -> None:
+    rows: list[tuple[str, Callable[[], str]]] = [
+        ("status (claimed)", lambda: _fmt(report.status)),
+        ("samples", lambda: str(report.samples)),
+        ("T(tolerance)", lambda: _fmt(report.duration_s, " s")),
+        ("T(1 cm)", lambda: _fmt(report.duration_1cm_s, " s")),
+        ("T(1 mm)", lambda: _fmt(report.duration_1mm_s, " s")),
+        ("final error", lambda: _fmt(report.final_error_m, " m")),
+        ("min clearance", lambda: _fmt(report.min_clearance_m, " m")),
+        ("joint limit violation", lambda: _fmt(report.max_joint_limit_violation)),
+        ("torque violation", lambda: _fmt(report.max_torque_violation)
+         + (f" ({report.torque_source} efforts)" if report.torque_source else "")),
+        ("tau vs model", lambda: _fmt(report.tau_model_deviation)),
+        ("pfaffian residual", lambda: _fmt(report.max_pfaffian_residual)),
+        ("dq residual", lambda: _fmt(report.dq_residual, " /s")),
+        ("ddq residual", lambda: _fmt(report.ddq_residual, " /s")),
+        ("ee vs FK", lambda: _fmt(report.ee_deviation_m, " m")),
+        ("manipulability", lambda: f"start {_fmt(report.manipulability_start)}, end "
+                                   f"{_fmt(report.manipulability_end)}, min "
+                                   f"{_fmt(report.manipulability_min)}"),
+    ]
+    for label, value in rows:
+        out.print(f"{label + ':':23s}{value()}", markup=False)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

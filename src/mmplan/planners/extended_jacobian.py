@@ -1,0 +1,290 @@
+r"""Extended-Jacobian planner (Pajak & Pajak, papers 000 and 003; SPEC section 3).
+
+A second-order trajectory generator drives the task error e_I = [k(q) - p_f; g(q)] and the
+Pfaffian error e_II = A(q) dq to zero (eq. (16) of 000 / (12) of 003), maximizing the arm's
+manipulability through the transversality condition g = 0 (eq. (11) / (9)), avoiding obstacles
+by a perturbation in the null space of A (eqs. (17)-(19)) and keeping actuator efforts inside
+their limits by the virtual control (eqs. (20)-(31) of 000, (13)-(22) of 003).
+
+Torque limits, two formulations (``virtual_control.mode``):
+
+* ``feedback``: eq. (23) of 000 / (17) of 003, u scales v2 (cases (a)-(d), growth laws of
+  000 and 003, u0 = 0); the obstacle perturbation gets its own factor fitted to the torque
+  budget (SPEC pitfall). Smooth torque start; used by youbot4r-reach-smooth.
+* ``time``: the unconstrained generator fixes a collision-free path and a time-optimal time
+  scaling w in [0, 1] keeps every effort in the safety zone (SPEC: "a true time scaling that
+  also scales the velocity terms"); default when the scene has obstacles.
+
+Modules: :mod:`~mmplan.planners.ej_criterion` (H, g, E, partition rule),
+:mod:`~mmplan.planners.ej_dynamics` (compiled generator step),
+:mod:`~mmplan.planners.virtual_control` (cases (a)-(d), growth laws),
+:mod:`~mmplan.planners.ej_rollout` (loop, statuses, stall escape),
+:mod:`~mmplan.planners.ej_timescale` and :mod:`~mmplan.planners.ej_topp` (time mode),
+:mod:`~mmplan.planners.ej_online` (online step for a control loop),
+:mod:`~mmplan.planners.ej_checks` (input checks, InputError before planning).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field
+
+from mmplan.errors import InputError
+from mmplan.planners import ej_checks
+from mmplan.planners import virtual_control as vc
+from mmplan.planners.base import Planner, PlannerSettings, Problem, Progress, register
+from mmplan.planners.ej_criterion import (
+    Partition,
+    build_criterion,
+    choose_partition,
+    repartition,
+)
+from mmplan.planners.ej_dynamics import (
+    GeneratorFunctions,
+    ObstacleTerm,
+    build_functions,
+    wheel_metric_inverse,
+)
+from mmplan.planners.ej_online import OnlineGenerator
+from mmplan.planners.ej_rollout import RolloutOptions, rollout
+from mmplan.planners.ej_timescale import rollout_time_scaled
+from mmplan.task import ReachPoint
+from mmplan.trajectory import PlanResult, Trajectory
+
+
+class VirtualControlSettings(BaseModel):
+    """Virtual control (000 section 4, 003 section 4)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    enabled: bool | None = Field(
+        None, description="None: on when the robot has finite torque limits"
+    )
+    eps_tau: float = Field(0.1, ge=0, lt=1, description="safety zone size, eq. (25) of 000")
+    growth: Literal["constant", "distance"] = Field(
+        "constant",
+        description="constant: du/dt = rho (1 - u) (000); distance: (1 - u)/rho(t) (003)",
+    )
+    rho: float = Field(1.0, gt=0, description="rate of the constant law [1/s]")
+    rho_min: float = Field(0.01, gt=0, description="rho(t) at the goal (distance law) [s]")
+    rho_max: float = Field(10.0, gt=0, description="rho(t) far from the goal (distance law) [s]")
+    mode: Literal["auto", "feedback", "time"] = Field(
+        "auto",
+        description="feedback: eq. (23) scales v2 (000/003); time: true time scaling of the whole "
+        "generator (ej_timescale); auto: time when the scene has obstacles, else feedback",
+    )
+    budget_perturbation: bool = Field(
+        True, description="scale the obstacle push to fit the torque budget (else eq. (24) as SPEC)"
+    )
+
+
+class ExtendedJacobianSettings(PlannerSettings):
+    """Settings of the extended-Jacobian planner (defaults: SPEC section 3)."""
+
+    method: Literal["extended-jacobian"] = "extended-jacobian"
+    t_max: float = Field(60.0, gt=0, allow_inf_nan=False, description="simulated seconds")
+    dt: float = Field(0.002, gt=0, le=0.05, description="integration step [s] (RK4)")
+    lambda_p: float = Field(1.75, gt=0, description="Lambda_P, eq. (14) of 000")
+    lambda_v: float = Field(2.78, gt=0, description="Lambda_V (>= 2 sqrt(Lambda_P): no overshoot)")
+    lambda_ii: float = Field(1.0, gt=0, description="Lambda_II, Pfaffian error rate")
+    penalty_weight: float = Field(0.01, gt=0, description="joint-limit penalty w")
+    obstacle_margin: float = Field(0.05, ge=0, description="enlargement of obstacles [m]")
+    influence: float = Field(
+        0.3, gt=0, description="neighbourhood delta when an obstacle has none [m]"
+    )
+    varrho: float = Field(1.0, gt=0, description="perturbation gain, eq. (19)")
+    arm_gradient_weight: float = Field(
+        0.3, ge=0, description="obstacle-gradient weight on arm joints"
+    )
+    virtual_control: VirtualControlSettings = Field(
+        default_factory=lambda: VirtualControlSettings.model_validate({})
+    )
+    stall_window: float = Field(3.0, gt=0, description="no-progress window for stall detection [s]")
+    stall_progress: float = Field(
+        1e-3, ge=0, description="error decrease expected over the window [m]"
+    )
+    escape: bool = Field(True, description="tangential push when stalled near an obstacle")
+    escape_gain: float = Field(5.0, gt=0, description="tangential push [m/s^2]")
+    escape_time: float = Field(2.0, gt=0, description="duration of one escape push [s]")
+    max_escapes: int = Field(5, ge=0)
+    cond_limit: float = Field(1e8, gt=1, description="cond(E) above which the run diverged")
+    codegen: bool = Field(
+        False, description="compile the generator to C (faster steps, ~30 s build)"
+    )
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """A checked problem with its compiled generator."""
+
+    q0: NDArray[np.float64]
+    p_f: NDArray[np.float64]
+    fns: GeneratorFunctions
+    options: RolloutOptions
+    partition: Partition
+    tolerance: float
+    build_time: float
+    time_scaling: bool
+    switch: Callable[[NDArray[np.float64]], GeneratorFunctions | None]
+    partitions: list[Partition]
+
+
+@register
+class ExtendedJacobian(Planner):
+    """Extended-Jacobian trajectory generator with virtual control (papers 000, 003)."""
+
+    method = "extended-jacobian"
+    settings_model = ExtendedJacobianSettings
+
+    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+        """Plan a point-to-point motion; see the module docstring.
+
+        Raises:
+            InputError: bad input detectable before planning (see :mod:`ej_checks`).
+        """
+        start_clock = time.perf_counter()
+        prep = self._prepare(problem)
+        robot = problem.robot
+        run = rollout_time_scaled if prep.time_scaling else rollout
+        res = run(
+            prep.fns,
+            robot.pfaffian,
+            wheel_metric_inverse(robot),
+            prep.q0,
+            prep.p_f,
+            prep.options,
+            prep.switch,
+        )
+        ee = np.asarray(robot.functions["ee_position"].map(len(res.t))(res.q.T), dtype=float).T
+        trajectory = Trajectory(
+            coordinates=robot.coordinates,
+            t=res.t,
+            q=res.q,
+            dq=res.dq,
+            ddq=res.ddq,
+            ee=ee,
+            actuators=robot.actuators,
+            tau=res.tau,
+            u=res.u,
+        )
+        r_names, f_names = prep.partitions[-1].names(robot)
+        info = dict(res.info)
+        info.update(
+            {
+                "partition_R": list(r_names),
+                "partition_F": list(f_names),
+                "torque_control": prep.options.torque_control,
+                "compiled": prep.fns.compiled,
+                "build_time_s": prep.build_time,
+            }
+        )
+        if progress is not None:
+            progress(1.0)
+        return PlanResult(
+            status=res.status,
+            trajectory=trajectory,
+            planner=self.method,
+            message=res.message,
+            compute_time_s=time.perf_counter() - start_clock,
+            info=info,
+            history={"error": res.error, "perturbation_scale": res.s},
+        )
+
+    def online(self, problem: Problem) -> OnlineGenerator:
+        """The generator as an online step for a control loop (state in; ddq, tau, u out)."""
+        prep = self._prepare(problem)
+        return OnlineGenerator(prep.fns, prep.p_f, prep.options)
+
+    @staticmethod
+    def _prepare(problem: Problem) -> _Prepared:
+        settings = problem.settings
+        if not isinstance(settings, ExtendedJacobianSettings):
+            settings = ExtendedJacobianSettings.model_validate(settings.model_dump())
+        robot, task = problem.robot, problem.task
+        if not isinstance(task, ReachPoint):
+            raise InputError("goal", "the extended-Jacobian planner needs a goal position")
+        q0 = ej_checks.check_start(robot, problem.start)
+        p_f = np.asarray(task.position, dtype=float)
+        ej_checks.check_goal(robot, p_f)
+        obstacles = [
+            ObstacleTerm(
+                ob.enlarged(settings.obstacle_margin).superellipsoid(),
+                ob.influence if ob.influence is not None else settings.influence,
+            )
+            for ob in problem.scene.obstacles
+        ]
+        ej_checks.check_start_clearance(robot, problem.scene, obstacles, q0)
+        partition = choose_partition(robot, q0)
+        build_clock = time.perf_counter()
+        crit = build_criterion(robot, partition, settings.penalty_weight)
+        fns = build_functions(
+            robot,
+            crit,
+            obstacles,
+            settings.varrho,
+            settings.arm_gradient_weight,
+            codegen=settings.codegen,
+        )
+        build_time = time.perf_counter() - build_clock
+        gains = (settings.lambda_p, settings.lambda_v, settings.lambda_ii)
+        ej_checks.check_conditioning(fns, q0, p_f, gains, settings.cond_limit)
+        vcs = settings.virtual_control
+        torque_control = robot.limits.has_torque_limits if vcs.enabled is None else vcs.enabled
+        if torque_control:
+            ej_checks.check_gravity(robot, q0)
+        options = RolloutOptions(
+            dt=settings.dt,
+            t_max=settings.t_max,
+            stop_error=0.5 * task.tolerance,
+            gains=gains,
+            torque_control=torque_control,
+            zone=vc.safety_zone(robot.limits.torque_min, robot.limits.torque_max, vcs.eps_tau),
+            limits=(robot.limits.torque_min, robot.limits.torque_max),
+            eps_growth=vc.Growth(vcs.growth),
+            rho=vcs.rho,
+            rho_min=vcs.rho_min,
+            rho_max=vcs.rho_max,
+            budget_perturbation=vcs.budget_perturbation,
+            stall_window=settings.stall_window,
+            stall_progress=settings.stall_progress,
+            escape=settings.escape,
+            escape_gain=settings.escape_gain,
+            escape_time=settings.escape_time,
+            max_escapes=settings.max_escapes,
+            cond_limit=settings.cond_limit,
+        )
+        mode = vcs.mode
+        if mode == "auto":
+            mode = "time" if obstacles else "feedback"
+        time_scaling = torque_control and mode == "time"
+        partitions = [partition]
+
+        def switch(q: NDArray[np.float64]) -> GeneratorFunctions | None:
+            # A partition switch mid-run uses the SX virtual machine (no 30-60 s C build).
+            other = repartition(robot, q, partitions[-1])
+            if other is None:
+                return None
+            partitions.append(other)
+            crit = build_criterion(robot, other, settings.penalty_weight)
+            return build_functions(
+                robot, crit, obstacles, settings.varrho, settings.arm_gradient_weight
+            )
+
+        return _Prepared(
+            q0,
+            p_f,
+            fns,
+            options,
+            partition,
+            task.tolerance,
+            build_time,
+            time_scaling,
+            switch,
+            partitions,
+        )

@@ -1,0 +1,135 @@
+r"""Virtual control: scaling the generator so that actuator efforts stay inside their limits.
+
+Implements section 4 of 000 (eqs. (23)-(31)) and section 4 of 003 (eqs. (17)-(22)):
+the efforts are affine in the virtual control, tau(u) = a u + b (eq. (24) of 000), with
+u in [0, 1]. The safety zone (eq. (25) of 000, (19) of 003) narrows the limits by
+0.5 eps_tau (tau_max - tau_min) on each side (an infinite limit stays infinite).
+
+When the nominal u (grown from the previous value by the growth law) drives some control
+outside the zone, each control i with a_i != 0 bounds u (cases (a)-(d) of 000):
+(a) a_i > 0 and upper limit: u <= (tau_max - b_i)/a_i; (b) a_i < 0 and lower limit:
+u <= (tau_min - b_i)/a_i; (c) a_i < 0 and upper limit: u >= (tau_max - b_i)/a_i;
+(d) a_i > 0 and lower limit: u >= (tau_min - b_i)/a_i. The upper bounds give
+u_max = min(...) (eq. (28)), the lower ones u_min = max(...) (eq. (29)); a solution exists iff
+u_min <= u_max (eq. (30)). We take every control into account (not only those that left the
+zone), so the chosen u cannot push another control out, and choose, among the feasible u,
+the one nearest the nominal value (SPEC: "the feasible u nearest the previous one").
+When eq. (30) is violated the sample is infeasible; we then use the u in [0, 1] with the
+smallest largest violation and report it.
+
+Growth laws (continuous increase of u back to 1 after scaling):
+``constant`` du/dt = rho (1 - u) (eq. (31) of 000); ``distance`` du/dt = (1 - u)/rho(t)
+with rho(t) = rho_max - (rho_max - rho_min) exp(-|k(q) - p_f|) (eqs. (21)-(22) of 003, the
+literal reading SPEC asks for). Both are integrated exactly over a step with rho held.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+_TINY = 1e-12
+
+
+class Growth(StrEnum):
+    """Growth law of the virtual control."""
+
+    CONSTANT = "constant"
+    DISTANCE = "distance"
+
+
+def safety_zone(tau_min: Array, tau_max: Array, eps_tau: float) -> tuple[Array, Array]:
+    """Narrowed limits tau_eps,min/max (eq. (25) of 000); infinite limits stay infinite."""
+    lo = np.asarray(tau_min, dtype=float).copy()
+    hi = np.asarray(tau_max, dtype=float).copy()
+    span = hi - lo
+    finite = np.isfinite(span)
+    lo[finite] += 0.5 * eps_tau * span[finite]
+    hi[finite] -= 0.5 * eps_tau * span[finite]
+    return lo, hi
+
+
+def feasible_interval(a: Array, b: Array, lo: Array, hi: Array) -> tuple[float, float]:
+    """[u_min, u_max] with lo <= a u + b <= hi, intersected with [0, 1] (eqs. (27)-(30) of 000).
+
+    Controls with a_i = 0 do not bound u; if such a control is outside [lo, hi] no u helps and
+    the interval is returned empty (u_min > u_max).
+    """
+    u_min, u_max = 0.0, 1.0
+    for ai, bi, li, hi_i in zip(a, b, lo, hi, strict=True):
+        if abs(ai) <= _TINY:
+            if bi < li - 1e-12 or bi > hi_i + 1e-12:
+                return 1.0, 0.0
+            continue
+        upper_lim = (hi_i - bi) / ai if np.isfinite(hi_i) else (np.inf if ai > 0 else -np.inf)
+        lower_lim = (li - bi) / ai if np.isfinite(li) else (-np.inf if ai > 0 else np.inf)
+        if ai > 0:  # cases (a) and (d)
+            u_max, u_min = min(u_max, upper_lim), max(u_min, lower_lim)
+        else:  # cases (b) and (c)
+            u_max, u_min = min(u_max, lower_lim), max(u_min, upper_lim)
+    return u_min, u_max
+
+
+def max_violation(u: float, a: Array, b: Array, lo: Array, hi: Array) -> float:
+    """Largest amount by which a u + b leaves [lo, hi] (0 inside)."""
+    tau = a * u + b
+    with np.errstate(invalid="ignore"):
+        over = np.maximum(np.maximum(tau - hi, lo - tau), 0.0)
+    return float(np.nanmax(over)) if over.size else 0.0
+
+
+@dataclass(frozen=True)
+class Choice:
+    """Result of one virtual-control decision: u, whether it is feasible, and its violation."""
+
+    u: float
+    feasible: bool
+    violation: float
+
+
+def choose(u_nominal: float, a: Array, b: Array, lo: Array, hi: Array) -> Choice:
+    """The virtual control for one sample (section 4 of 000).
+
+    Args:
+        u_nominal: u grown from the previous value by the growth law.
+        a, b: Coefficients of tau(u) = a u + b (n_act,).
+        lo, hi: Safety zone (n_act,).
+    """
+    if max_violation(u_nominal, a, b, lo, hi) <= 0.0:
+        return Choice(u_nominal, True, 0.0)
+    u_min, u_max = feasible_interval(a, b, lo, hi)
+    if u_min <= u_max:
+        u = float(np.clip(u_nominal, u_min, u_max))
+        return Choice(u, True, max_violation(u, a, b, lo, hi))
+    # Eq. (30) violated: the largest violation is convex and piecewise linear in u; minimize it
+    # over [0, 1] by ternary search.
+    left, right = 0.0, 1.0
+    for _ in range(80):
+        m1, m2 = left + (right - left) / 3, right - (right - left) / 3
+        if max_violation(m1, a, b, lo, hi) <= max_violation(m2, a, b, lo, hi):
+            right = m2
+        else:
+            left = m1
+    best = 0.5 * (left + right)
+    return Choice(best, False, max_violation(best, a, b, lo, hi))
+
+
+def grow(
+    u: float, dt: float, growth: Growth, rho: float, rho_min: float, rho_max: float, distance: float
+) -> float:
+    """u after dt under the growth law, integrated exactly with the rate held.
+
+    ``constant``: du/dt = rho (1 - u) (eq. (31) of 000).
+    ``distance``: du/dt = (1 - u)/rho(t), rho(t) = rho_max - (rho_max - rho_min) exp(-distance)
+    (eqs. (21)-(22) of 003), ``distance`` = |k(q) - p_f| [m].
+    """
+    if growth is Growth.CONSTANT:
+        rate = rho
+    else:
+        rate = 1.0 / (rho_max - (rho_max - rho_min) * np.exp(-distance))
+    return float(1.0 - (1.0 - u) * np.exp(-rate * dt))

@@ -1,0 +1,216 @@
+"""Time-series figures of a plan, as papers 000 and 003 print them.
+
+Each function returns a :class:`RenderedFigure`, or None when the plan lacks the data
+(e.g. no obstacles, no efforts). :func:`time_figures` collects all that apply.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from mmplan.report.context import ReportContext
+from mmplan.report.figure_kit import (
+    RenderedFigure,
+    limit_line,
+    mean_normalized,
+    new_figure,
+    render,
+)
+
+
+def clearance_figure(ctx: ReportContext) -> RenderedFigure | None:
+    """Minimal distance robot-obstacle over time with the neighbourhoods (000 Figs. 3, 8)."""
+    if not ctx.obstacles or not np.isfinite(ctx.clearance).any():
+        return None
+    fig, ax = new_figure()
+    t = ctx.t_dec
+    for j, view in enumerate(ctx.obstacles):
+        (line,) = ax.plot(t, ctx.clearance[:, j], label=f"obstacle {view.label}")
+        if view.influence is not None:
+            ax.axhline(ctx.margin + view.influence, color=line.get_color(), linestyle="--", lw=1)
+    if ctx.margin > 0:
+        ax.axhline(
+            ctx.margin, color="0.4", linestyle=":", lw=1, label=f"enlargement {ctx.margin} m"
+        )
+    limit_line(ax, 0.0, "contact")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("distance [m]")
+    ax.legend(fontsize=8, loc="upper right")
+    lowest = float(np.nanmin(ctx.clearance))
+    return render(
+        fig,
+        "clearance",
+        "Minimal distance between robot and obstacles",
+        "Exact distance from the robot's collision points to each original obstacle; dashed "
+        "lines: influence neighbourhoods (enlargement + influence) as in 000 Figs. 3 and 8. "
+        f"Minimum {lowest:.4f} m.",
+    )
+
+
+def joints_figure(ctx: ReportContext) -> RenderedFigure | None:
+    """Mean-normalized arm joint angles with their limits at +-0.5 (000 Figs. 4, 9)."""
+    robot = ctx.robot
+    if not robot.arm_indices:
+        return None
+    values = ctx.plan.q[:, list(robot.arm_indices)]
+    lim = robot.limits
+    norm, by_limits = mean_normalized(values, lim.joint_min, lim.joint_max)
+    fig, ax = new_figure()
+    for k, name in enumerate(robot.arm_coordinates):
+        ax.plot(ctx.plan.t, norm[:, k], label=name + ("" if by_limits[k] else " (by range)"))
+    limit_line(ax, 0.5)
+    limit_line(ax, -0.5, "limits")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("normalized angle [-]")
+    ax.legend(fontsize=8, loc="upper right", ncol=2)
+    worst = float(np.max(np.abs(norm[:, by_limits]))) if by_limits.any() else float("nan")
+    return render(
+        fig,
+        "joints",
+        "Normalized arm joint angles",
+        "(q - (q_min + q_max)/2) / (q_max - q_min): limits at +-0.5 (dashed red), as in 000 "
+        f"Figs. 4 and 9. Largest |normalized angle| {worst:.3f}.",
+    )
+
+
+def manipulability_figure(ctx: ReportContext) -> RenderedFigure:
+    """Arm manipulability mu(q) = sqrt(det(J_a J_a^T)) over time (000 Figs. 5, 10)."""
+    fig, ax = new_figure()
+    ax.plot(ctx.t_dec, ctx.manipulability, color="tab:purple")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("manipulability [m^3]")
+    mu = ctx.manipulability
+    return render(
+        fig,
+        "manipulability",
+        "Arm manipulability",
+        f"Yoshikawa measure of the arm, recomputed from q: start {mu[0]:.5f}, "
+        f"end {mu[-1]:.5f}, min {np.min(mu):.5f} (000 Figs. 5 and 10).",
+    )
+
+
+def _torque_figure(ctx: ReportContext, arm: bool) -> RenderedFigure | None:
+    plan, robot = ctx.plan, ctx.robot
+    if plan.tau is None:
+        return None
+    chosen = [i for i, a in enumerate(plan.actuators) if (a in robot.arm_coordinates) == arm]
+    if not chosen:
+        return None
+    lim = robot.limits
+    lookup = {a: i for i, a in enumerate(robot.actuators)}
+    lo = np.array(
+        [
+            lim.torque_min[lookup[plan.actuators[i]]] if plan.actuators[i] in lookup else -np.inf
+            for i in chosen
+        ]
+    )
+    hi = np.array(
+        [
+            lim.torque_max[lookup[plan.actuators[i]]] if plan.actuators[i] in lookup else np.inf
+            for i in chosen
+        ]
+    )
+    norm, by_limits = mean_normalized(plan.tau[:, chosen], lo, hi)
+    fig, ax = new_figure()
+    for k, i in enumerate(chosen):
+        suffix = "" if by_limits[k] else " (no limit: by range)"
+        ax.plot(plan.t, norm[:, k], label=f"tau.{plan.actuators[i]}{suffix}")
+    if by_limits.any():
+        limit_line(ax, 0.5)
+        limit_line(ax, -0.5, "limits")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("normalized torque [-]")
+    ax.legend(fontsize=8, loc="upper right")
+    part = "arm joint" if arm else "wheel"
+    worst = float(np.max(np.abs(norm[:, by_limits]))) if by_limits.any() else float("nan")
+    return render(
+        fig,
+        "torques_arm" if arm else "torques_wheels",
+        f"Normalized {part} torques",
+        f"Mean-normalized {part} efforts, limits at +-0.5 (000 Figs. 6-7, 11-12; 003 Fig. 5). "
+        f"Largest |normalized torque| within limits columns: {worst:.3f} (> 0.5 is a violation).",
+    )
+
+
+def wheel_torques_figure(ctx: ReportContext) -> RenderedFigure | None:
+    """Platform actuator efforts, mean-normalized with limits."""
+    return _torque_figure(ctx, arm=False)
+
+
+def arm_torques_figure(ctx: ReportContext) -> RenderedFigure | None:
+    """Arm joint efforts, mean-normalized with limits."""
+    return _torque_figure(ctx, arm=True)
+
+
+def virtual_control_figure(ctx: ReportContext) -> RenderedFigure | None:
+    """Virtual control u(t) (000 eq. 21 / 003 Fig. 7)."""
+    if ctx.plan.u is None:
+        return None
+    fig, ax = new_figure(height=3.0)
+    ax.plot(ctx.plan.t, ctx.plan.u, color="tab:green")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("u [-]")
+    return render(
+        fig,
+        "virtual_control",
+        "Virtual control u(t)",
+        "Scaling of the feedback that keeps the efforts inside the safety zone (003 Fig. 7).",
+    )
+
+
+def extra_columns_figure(ctx: ReportContext) -> RenderedFigure | None:
+    """Further trajectory columns (e.g. platform controls u1, u2 of paper 002)."""
+    extra = {k: v for k, v in ctx.plan.extra.items() if np.isfinite(v).any()}
+    if not extra:
+        return None
+    fig, ax = new_figure(height=3.0)
+    for name, values in extra.items():
+        ax.plot(ctx.plan.t, values, label=name)
+    ax.set_xlabel("t [s]")
+    ax.legend(fontsize=8)
+    return render(
+        fig,
+        "extra_columns",
+        "Further controls",
+        f"Columns {', '.join(extra)} of trajectory.csv over time.",
+    )
+
+
+def task_error_figure(ctx: ReportContext) -> RenderedFigure | None:
+    """Task error over time (tracking error for paths, distance to goal for reach tasks)."""
+    if ctx.task_error is None:
+        return None
+    fig, ax = new_figure(height=3.2)
+    err = np.maximum(ctx.task_error, 1e-12)
+    ax.semilogy(ctx.plan.t, err, color="tab:blue")
+    limit_line(ax, ctx.tolerance, f"tolerance {ctx.tolerance:g} m")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("error [m]")
+    ax.legend(fontsize=8)
+    if ctx.task_kind == "reach":
+        title, what = "Distance to the goal", "|k(q) - p_f|"
+    else:
+        title, what = "Tracking error", "|k(q(t)) - X_d(t)|"
+    return render(
+        fig, "task_error", title, f"{what} over time, log scale; final {ctx.task_error[-1]:.3g} m."
+    )
+
+
+TIME_FIGURES: tuple[Callable[[ReportContext], RenderedFigure | None], ...] = (
+    clearance_figure,
+    joints_figure,
+    manipulability_figure,
+    wheel_torques_figure,
+    arm_torques_figure,
+    virtual_control_figure,
+    extra_columns_figure,
+    task_error_figure,
+)
+
+
+def time_figures(ctx: ReportContext) -> list[RenderedFigure]:
+    """Every time-series figure the plan has data for, in report order."""
+    return [f for f in (make(ctx) for make in TIME_FIGURES) if f is not None]

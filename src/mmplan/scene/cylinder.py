@@ -1,0 +1,84 @@
+"""Vertical cylinder obstacle (finite, flat caps): closed-form signed distance.
+
+Its planner model is the superellipsoid with exponents (e1, e2) = (0.1, 1.0): a round
+horizontal cross-section and a nearly flat top and bottom (Table 1 of paper 000).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mmplan.scene.obstacle import (
+    Array,
+    Obstacle,
+    Vec3,
+    as_float,
+    influence_value,
+    points_array,
+    positive,
+    register_shape,
+    vector,
+)
+from mmplan.scene.superellipsoid import Superellipsoid
+
+CYLINDER_EXPONENTS = (0.1, 1.0)  # (vertical e1, horizontal e2) of the planner model
+
+
+@register_shape
+@dataclass(frozen=True)
+class Cylinder(Obstacle):
+    """Cylinder with a vertical axis, standing on ``base_center``.
+
+    Attributes:
+        base_center: Centre of the bottom cap (3,) [m].
+        radius: Radius [m], > 0.
+        height: Height [m], > 0 (the top cap is at base_center z + height).
+        influence: Planner neighbourhood [m] or None (planner default).
+    """
+
+    shape: ClassVar[str] = "cylinder"
+    base_center: Vec3
+    radius: float
+    height: float
+    influence: float | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "base_center", vector(self.base_center, "base_center"))
+        object.__setattr__(self, "radius", positive(self.radius, "radius"))
+        object.__setattr__(self, "height", positive(self.height, "height"))
+        object.__setattr__(self, "influence", influence_value(self.influence))
+
+    @property
+    def center(self) -> Vec3:
+        """Centre of the solid (3,) [m] (half way up the axis)."""
+        x, y, z = self.base_center
+        return (x, y, z + 0.5 * self.height)
+
+    def distance(self, points: ArrayLike) -> Array:
+        """Exact signed distance (P,) [m].
+
+        With radial excess d_r = |p_xy - c_xy| - r and axial excess d_z = |z - c_z| - h/2:
+        outside |(max(d_r, 0), max(d_z, 0))|, inside max(d_r, d_z) (< 0).
+        """
+        p = points_array(points) - np.asarray(self.center)
+        d_r = np.hypot(p[:, 0], p[:, 1]) - self.radius
+        d_z = np.abs(p[:, 2]) - 0.5 * self.height
+        outside = np.hypot(np.maximum(d_r, 0.0), np.maximum(d_z, 0.0))
+        return np.asarray(outside + np.minimum(np.maximum(d_r, d_z), 0.0), dtype=float)
+
+    def enlarged(self, eps: float) -> Cylinder:
+        """Radius and half height grown by ``eps`` [m] (centre kept)."""
+        eps = as_float(eps, "eps")
+        x, y, z = self.base_center
+        return Cylinder((x, y, z - eps), self.radius + eps, self.height + 2 * eps, self.influence)
+
+    def superellipsoid(self) -> Superellipsoid:
+        """Model: semi-axes (r, r, h/2) about the centre, exponents (0.1, 1.0)."""
+        r = self.radius
+        return Superellipsoid(
+            self.center, (r, r, 0.5 * self.height), CYLINDER_EXPONENTS, 0.0, self.influence
+        )

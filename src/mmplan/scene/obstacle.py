@@ -1,0 +1,180 @@
+"""Obstacle base class, input validation helpers and the registry of shapes by name.
+
+Every shape (one class per file) is a frozen dataclass whose field names are the keys of its
+scenario YAML form (SPEC section 8), so ``to_dict`` and :func:`obstacle_from_dict` are generic.
+Each shape offers two views of the same object (SPEC section 2):
+
+* :meth:`Obstacle.distance`: the exact signed Euclidean distance (negative inside) used by the
+  independent checker, always against the original shape;
+* :meth:`Obstacle.superellipsoid`: a smooth Barr superellipsoid model used by planners.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mmplan.errors import InputError, UnknownNameError
+
+if TYPE_CHECKING:
+    from mmplan.scene.superellipsoid import Superellipsoid
+
+Array = NDArray[np.float64]
+Vec3 = tuple[float, float, float]
+
+_REGISTRY: dict[str, type[Obstacle]] = {}
+
+ShapeT = TypeVar("ShapeT", bound="type[Obstacle]")
+
+
+def register_shape(cls: ShapeT) -> ShapeT:
+    """Class decorator: make a shape constructible by :func:`obstacle_from_dict`."""
+    _REGISTRY[cls.shape] = cls
+    return cls
+
+
+def shape_names() -> tuple[str, ...]:
+    """Names of the registered shapes, sorted."""
+    return tuple(sorted(_REGISTRY))
+
+
+def obstacle_from_dict(data: Mapping[str, Any]) -> Obstacle:
+    """Build an obstacle from its scenario form, e.g. ``{shape: sphere, center: [..], radius: r}``.
+
+    Raises:
+        UnknownNameError: ``shape`` is missing or not a registered shape.
+        InputError: a key is unknown or missing, or a value is invalid (field names the key).
+    """
+    if not isinstance(data, Mapping):
+        raise InputError("", f"an obstacle must be a mapping with a 'shape' key, got {data!r}")
+    if "shape" not in data:
+        raise InputError("shape", f"missing; one of {', '.join(shape_names())}")
+    name = data["shape"]
+    if not isinstance(name, str) or name not in _REGISTRY:
+        raise UnknownNameError(
+            "shape", f"unknown shape {name!r}; one of {', '.join(shape_names())}"
+        )
+    cls = _REGISTRY[name]
+    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    kwargs = {k: v for k, v in data.items() if k != "shape"}
+    for key in kwargs:
+        if key not in names:
+            raise InputError(str(key), f"unknown key for shape {name!r}; keys: {', '.join(names)}")
+    required = [
+        f.name
+        for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+    ]
+    for key in required:
+        if key not in kwargs:
+            raise InputError(key, f"missing for shape {name!r}")
+    return cls(**kwargs)
+
+
+class Obstacle(ABC):
+    """A static obstacle. Subclasses are frozen dataclasses validated in ``__post_init__``.
+
+    Attributes:
+        shape: Registry name, also the ``shape`` key of the scenario form.
+        influence: Planner neighbourhood size [m] from the scenario (measured from the
+            enlarged surface); ``None`` means the planner's default.
+    """
+
+    shape: ClassVar[str]
+    influence: float | None
+
+    @abstractmethod
+    def distance(self, points: ArrayLike) -> Array:
+        """Exact signed Euclidean distance from each point (P, 3) to the surface (P,) [m].
+
+        Negative inside. Accurate to 1e-6 m.
+        """
+
+    @abstractmethod
+    def enlarged(self, eps: float) -> Obstacle:
+        """The same kind of obstacle grown by ``eps`` [m] (half extents + eps)."""
+
+    @abstractmethod
+    def superellipsoid(self) -> Superellipsoid:
+        """Smooth superellipsoid model of this obstacle for planners."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Scenario YAML form (plain lists and floats); ``influence`` only when set."""
+        out: dict[str, Any] = {"shape": self.shape}
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            if f.name == "influence" and value is None:
+                continue
+            out[f.name] = list(value) if isinstance(value, tuple) else value
+        return out
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _fail(field: str, problem: str) -> InputError:
+    return InputError(field, problem)
+
+
+def as_float(value: Any, field: str) -> float:
+    """A finite float, else :class:`InputError` naming ``field``."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        raise _fail(field, f"expected a number, got {value!r}")
+    out = float(value)
+    if not math.isfinite(out):
+        raise _fail(field, f"expected a finite number, got {value!r}")
+    return out
+
+
+def positive(value: Any, field: str) -> float:
+    """A finite float > 0, else :class:`InputError` naming ``field``."""
+    out = as_float(value, field)
+    if out <= 0.0:
+        raise _fail(field, f"expected a positive length in metres, got {value!r}")
+    return out
+
+
+def vector(
+    value: Any, field: str, size: int = 3, check: Callable[[Any, str], float] = as_float
+) -> tuple[float, ...]:
+    """A tuple of ``size`` floats each passing ``check`` (field ``name[i]`` on error)."""
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence | np.ndarray):
+        raise _fail(field, f"expected a list of {size} numbers, got {value!r}")
+    items = list(value)
+    if len(items) != size:
+        raise _fail(field, f"expected a list of {size} numbers, got {len(items)}: {value!r}")
+    return tuple(check(v, f"{field}[{i}]") for i, v in enumerate(items))
+
+
+def influence_value(value: Any) -> float | None:
+    """Validate the optional ``influence`` field (None or a positive length)."""
+    return None if value is None else positive(value, "influence")
+
+
+def points_array(points: ArrayLike) -> Array:
+    """Points as a float array (P, 3); a single point (3,) becomes (1, 3)."""
+    arr = np.asarray(points, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InputError("points", f"expected an array of shape (P, 3), got {arr.shape}")
+    return arr
+
+
+def rot_z(yaw: float) -> Array:
+    """Rotation matrix about z by ``yaw`` [rad] (3, 3)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def to_local(points: ArrayLike, center: Sequence[float], yaw: float) -> Array:
+    """Coordinates p' = R_z(yaw)^T (p - c) of world points (P, 3)."""
+    p = points_array(points) - np.asarray(center, dtype=float)
+    # Row-vector form of R^T (p - c): (p - c) @ R.
+    return np.asarray(p @ rot_z(yaw), dtype=float)

@@ -1,0 +1,86 @@
+"""Scene: the static obstacles of a scenario, with exact distances for checking."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mmplan.errors import InputError
+from mmplan.scene.obstacle import Array, Obstacle, obstacle_from_dict, points_array
+
+
+@dataclass(frozen=True)
+class Scene:
+    """An ordered, immutable collection of obstacles.
+
+    Attributes:
+        obstacles: The obstacles, in scenario order.
+    """
+
+    obstacles: tuple[Obstacle, ...] = ()
+
+    def __post_init__(self) -> None:
+        obstacles = tuple(self.obstacles)
+        for i, obstacle in enumerate(obstacles):
+            if not isinstance(obstacle, Obstacle):
+                raise InputError(f"obstacles[{i}]", f"expected an Obstacle, got {obstacle!r}")
+        object.__setattr__(self, "obstacles", obstacles)
+
+    def __len__(self) -> int:
+        return len(self.obstacles)
+
+    def __iter__(self) -> Iterator[Obstacle]:
+        return iter(self.obstacles)
+
+    def distances(self, points: ArrayLike) -> Array:
+        """Exact signed distance of every point to every obstacle (P, n_obs) [m]."""
+        p = points_array(points)
+        out = np.empty((p.shape[0], len(self.obstacles)))
+        for j, obstacle in enumerate(self.obstacles):
+            out[:, j] = obstacle.distance(p)
+        return out
+
+    def clearance(self, points: ArrayLike, radii: ArrayLike | None = None) -> float:
+        """Smallest (distance - radius) over all points and obstacles [m].
+
+        Args:
+            points: Points (P, 3) [m], e.g. a robot's collision points over a trajectory.
+            radii: Radius of the sphere at each point (P,) [m]; None for points.
+
+        Returns:
+            The minimum clearance, negative on penetration; +inf without obstacles or points.
+        """
+        p = points_array(points)
+        if not self.obstacles or p.shape[0] == 0:
+            return float("inf")
+        d = self.distances(p)
+        if radii is not None:
+            r = np.asarray(radii, dtype=float).reshape(-1)
+            if r.shape != (p.shape[0],):
+                raise InputError("radii", f"expected shape ({p.shape[0]},), got {r.shape}")
+            d = d - r[:, None]
+        return float(d.min())
+
+    def enlarged(self, eps: float) -> Scene:
+        """Every obstacle grown by ``eps`` [m] (see each shape's ``enlarged``)."""
+        return Scene(tuple(o.enlarged(eps) for o in self.obstacles))
+
+    @classmethod
+    def from_dicts(cls, items: Iterable[Mapping[str, Any]]) -> Scene:
+        """Scene from scenario forms; errors name the item, e.g. ``[1].radius``."""
+        obstacles = []
+        for i, item in enumerate(items):
+            try:
+                obstacles.append(obstacle_from_dict(item))
+            except InputError as err:
+                field = f"[{i}].{err.field}" if err.field else f"[{i}]"
+                raise type(err)(field, err.problem) from err
+        return cls(tuple(obstacles))
+
+    def to_dicts(self) -> list[dict[str, Any]]:
+        """Scenario forms of the obstacles, in order."""
+        return [o.to_dict() for o in self.obstacles]

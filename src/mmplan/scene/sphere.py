@@ -1,0 +1,60 @@
+"""Sphere obstacle: closed-form signed distance; superellipsoid model with exponents (1, 1)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mmplan.scene.obstacle import (
+    Array,
+    Obstacle,
+    Vec3,
+    as_float,
+    influence_value,
+    points_array,
+    positive,
+    register_shape,
+    vector,
+)
+from mmplan.scene.superellipsoid import Superellipsoid
+
+
+@register_shape
+@dataclass(frozen=True)
+class Sphere(Obstacle):
+    """Sphere of ``radius`` [m] about ``center`` (3,) [m].
+
+    Attributes:
+        center: Centre (3,) [m].
+        radius: Radius [m], > 0.
+        influence: Planner neighbourhood [m] or None (planner default).
+    """
+
+    shape: ClassVar[str] = "sphere"
+    center: Vec3
+    radius: float
+    influence: float | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "center", vector(self.center, "center"))
+        object.__setattr__(self, "radius", positive(self.radius, "radius"))
+        object.__setattr__(self, "influence", influence_value(self.influence))
+
+    def distance(self, points: ArrayLike) -> Array:
+        """Signed distance |p - c| - r (P,) [m] (exact)."""
+        return np.asarray(
+            np.linalg.norm(points_array(points) - np.asarray(self.center), axis=1) - self.radius,
+            dtype=float,
+        )
+
+    def enlarged(self, eps: float) -> Sphere:
+        """Radius grown by ``eps`` [m]."""
+        return Sphere(self.center, self.radius + as_float(eps, "eps"), self.influence)
+
+    def superellipsoid(self) -> Superellipsoid:
+        """Exact model: semi-axes (r, r, r), exponents (1, 1)."""
+        r = self.radius
+        return Superellipsoid(self.center, (r, r, r), (1.0, 1.0), 0.0, self.influence)

@@ -1,0 +1,78 @@
+"""Test-only planner ``test-eta``: drives dq = N(q) eta for a constant eta (never shipped).
+
+Integrates the kinematics with RK4 at step ``dt`` and stops as soon as the task error is
+below the tolerance (status ``reached``) or at ``t_max`` (status ``timeout``); ddq by
+differentiating dq along the samples. Honest by construction: the status is the measured
+error at the last sample. ``sleep_s`` makes the run slow (to exercise the progress bar).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from mmplan.planners.base import Planner, PlannerSettings, Problem, Progress, register
+from mmplan.trajectory import PlanResult, Status, Trajectory
+
+METHOD = "test-eta"
+
+
+class EtaSettings(PlannerSettings):
+    """Constant auxiliary velocity eta (n - h) and the RK4 step."""
+
+    method: Literal["test-eta"] = METHOD
+    eta: list[float]
+    dt: float = Field(0.01, gt=0, allow_inf_nan=False)
+    sleep_s: float = Field(0.0, ge=0)
+
+
+@register
+class EtaPlanner(Planner):
+    """dq = N(q) eta, RK4."""
+
+    method = METHOD
+    settings_model = EtaSettings
+
+    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+        s = problem.settings
+        assert isinstance(s, EtaSettings)
+        robot, task = problem.robot, problem.task
+        eta = np.asarray(s.eta, dtype=float)
+
+        def f(q: np.ndarray) -> np.ndarray:
+            return robot.null_basis(q) @ eta
+
+        steps = int(np.ceil(s.t_max / s.dt))
+        qs = [np.asarray(problem.start, dtype=float)]
+        status = Status.TIMEOUT
+        t0 = time.perf_counter()
+        for k in range(steps + 1):
+            ee = robot.ee_position(qs[-1])
+            if task.errors(np.array([k * s.dt]), ee[None, :])[0] < task.tolerance:
+                status = Status.REACHED
+                break
+            if k == steps:
+                break
+            q = qs[-1]
+            k1 = f(q)
+            k2 = f(q + 0.5 * s.dt * k1)
+            k3 = f(q + 0.5 * s.dt * k2)
+            k4 = f(q + s.dt * k3)
+            qs.append(q + s.dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4))
+            if progress is not None:
+                progress(k / steps)
+            if s.sleep_s:
+                time.sleep(s.sleep_s / steps)
+        q_arr = np.array(qs)
+        t = np.arange(len(qs)) * s.dt
+        dq = np.array([f(q) for q in q_arr])
+        ddq = np.gradient(dq, t, axis=0) if len(t) > 1 else np.zeros_like(dq)
+        ee_arr = np.array([robot.ee_position(q) for q in q_arr])
+        traj = Trajectory(robot.coordinates, t, q_arr, dq, ddq, ee_arr)
+        return PlanResult(status, traj, METHOD, message=f"{status.value} after {len(t)} samples",
+                          compute_time_s=time.perf_counter() - t0,
+                          info={"steps": len(t) - 1, "eta_norm": float(np.linalg.norm(eta))},
+                          history={"error": np.linalg.norm(ee_arr - ee_arr[-1], axis=1)})
