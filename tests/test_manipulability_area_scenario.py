@@ -44,3 +44,22 @@ def test_wall_segment_limits_scenario_needs_subgoals() -> None:
     assert np.all(q_arm >= lim.joint_min - 1e-12) and np.all(q_arm <= lim.joint_max + 1e-12)
     report = check(result.trajectory, scenario.build(), result.status.value)
     assert report.failures() == []  # incl. dq consistency through the blended corners
+
+
+def test_wall_segment_summary_reports_threshold_and_independent_minimum(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """summary.json holds the threshold, and the checker's own minimum of 004's w (6x6 tool
+    Jacobian of the robot model, not the planner's closed form) stays above it."""
+    import json
+
+    from mmplan.trajectory_io import write_plan
+
+    scenario = load_scenario("wall-segment")
+    problem = scenario.build()
+    result = get_planner(scenario.method)().plan(problem)
+    write_plan(tmp_path / "plan", result, problem, scenario)
+    summary = json.loads((tmp_path / "plan" / "summary.json").read_text())
+    assert summary["manipulability_threshold"] == pytest.approx(0.00397, abs=1e-5)
+    assert summary["manipulability_min"] >= summary["manipulability_threshold"]
+    assert summary["manipulability_min"] == pytest.approx(
+        result.info["manipulability_min"], rel=1e-6
+    )

@@ -87,6 +87,11 @@ def _replace(tmp: Path, out: Path) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
+#: Planner ``info`` keys copied to the top level of summary.json (issue 5: the
+#: manipulability-area planner reports its threshold next to ``manipulability_min``).
+SURFACED_INFO = ("manipulability_threshold",)
+
+
 def _write_all(folder: Path, result: PlanResult, problem: Problem, scenario: Scenario,
                fmt: str) -> None:
     tr = result.trajectory
@@ -94,6 +99,9 @@ def _write_all(folder: Path, result: PlanResult, problem: Problem, scenario: Sce
     report = check(tr, problem)
     summary = report.summary(status=str(result.status.value), planner=result.planner,
                              compute_time_s=float(result.compute_time_s))
+    for key in SURFACED_INFO:  # planner numbers the issues ask for at the top level
+        if key in result.info:
+            summary[key] = result.info[key]
     summary.update(message=result.message, scenario=scenario.name,
                    planner_info=dict(result.info))
     (folder / "summary.json").write_text(json.dumps(_jsonable(summary), indent=2) + "\n",

@@ -18,8 +18,9 @@ cut too and the robot can coast into it; ``time`` mode (:mod:`ej_timescale`) avo
 
 Escape from local minima (000 cites it): when the error has not decreased by ``stall_progress``
 over ``stall_window`` while an obstacle acts (K > 0), a push along the obstacle boundary
-(perpendicular to dK/dq in the platform plane, on the goal's side, with a damped turn of the
-platform towards it) is applied for ``escape_time``; the next verdict waits a full window.
+(perpendicular to dK/dq in the platform plane, on the goal's side on odd attempts and the
+other side on even ones, with a damped turn of the platform towards it) is applied for
+``escape_time``; the next verdict waits a full window.
 After ``max_escapes`` attempts, or without an obstacle acting, the run ends as stalled.
 
 Conditioning: cond(E) is computed every ``cond_every`` steps; above ``switch_cond`` the
@@ -178,6 +179,8 @@ def rollout(
             if progress < opt.stall_progress:
                 if opt.escape and S > 0.0 and escapes < opt.max_escapes:
                     escape_dir = _escape_direction(out.gK, q, p_f)
+                    if escape_dir is not None and escapes % 2 == 1:
+                        escape_dir = -escape_dir  # every other attempt goes the other way round
                     escape_until, escapes = t + opt.escape_time, escapes + 1
                     escape_left = opt.max_escapes - escapes
                 else:

@@ -38,12 +38,12 @@ from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
 from mmplan.errors import InputError
-from mmplan.planners.base import Planner, PlannerSettings, Problem, Progress, register
+from mmplan.planners.base import Planner, Problem, Progress, register
 from mmplan.planners.pseudoinverse import require_path
 from mmplan.planners.tracking_geometry import horizontal_distance_sym
 from mmplan.planners.tracking_potentials import min_clearance_sym, sphere_distances
 from mmplan.planners.tracking_result import finish
-from mmplan.planners.tracking_rollout import StopRules, compile_step, rollout
+from mmplan.planners.tracking_rollout import TrackingSettings, compile_step, rollout
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
@@ -52,7 +52,7 @@ from mmplan.trajectory import PlanResult
 Array = NDArray[np.float64]
 
 
-class ImpedanceSettings(PlannerSettings):
+class ImpedanceSettings(TrackingSettings):
     """Settings of the virtual-impedance tracker; defaults are SPEC section 5's example."""
 
     method: Literal["impedance"] = "impedance"
@@ -79,23 +79,11 @@ class ImpedanceSettings(PlannerSettings):
     )
     damping: float = Field(1.0, gt=0, allow_inf_nan=False, description="B_d of Z_d = B_d s + K_d")
     stiffness: float = Field(1.0, ge=0, allow_inf_nan=False, description="K_d of Z_d")
-    min_singular_value: float = Field(
-        0.02, gt=0, allow_inf_nan=False, description="stop (stalled) below this sigma_min(J_t)"
-    )
-    max_error: float = Field(
-        0.1,
-        gt=0,
-        allow_inf_nan=False,
-        description="stop (diverged) when the error exceeds the initial one by this [m]",
-    )
     settle_time: float = Field(
         1.0,
         ge=0,
         allow_inf_nan=False,
         description="report the max tracking error after this time [s]",
-    )
-    stop_on_collision: bool = Field(
-        True, description="stop (stalled) when a collision sphere touches an obstacle"
     )
 
     @model_validator(mode="after")
@@ -217,9 +205,6 @@ class ImpedancePlanner(Planner):
         model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings)
         t_end = min(task.duration, settings.t_max)
         steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
-        rules = StopRules(
-            settings.min_singular_value, settings.max_error, settings.stop_on_collision
-        )
         state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
         run = rollout(
             model.step,
@@ -228,7 +213,7 @@ class ImpedancePlanner(Planner):
             problem.robot,
             settings.dt,
             steps,
-            rules,
+            settings.stop_rules(),
             model.smallest_singular_value,
             progress,
         )

@@ -36,10 +36,10 @@ from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
 from mmplan.errors import InputError
-from mmplan.planners.base import Planner, PlannerSettings, Problem, Progress, register
+from mmplan.planners.base import Planner, Problem, Progress, register
 from mmplan.planners.tracking_potentials import joint_limit_potential, obstacle_potential
 from mmplan.planners.tracking_result import finish
-from mmplan.planners.tracking_rollout import StopRules, compile_step, rollout
+from mmplan.planners.tracking_rollout import TrackingSettings, compile_step, rollout
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
@@ -48,7 +48,7 @@ from mmplan.trajectory import PlanResult
 Array = NDArray[np.float64]
 
 
-class PseudoinverseSettings(PlannerSettings):
+class PseudoinverseSettings(TrackingSettings):
     """Settings of the weighted-pseudoinverse tracker; defaults are SPEC section 4's example."""
 
     method: Literal["pseudoinverse"] = "pseudoinverse"
@@ -73,24 +73,6 @@ class PseudoinverseSettings(PlannerSettings):
     )
     platform_range: tuple[float, ...] | None = Field(
         None, description="ranges b_i of the platform coordinates; default x, y 10 m, angles 2 pi"
-    )
-    min_singular_value: float = Field(
-        0.02, gt=0, allow_inf_nan=False, description="stop (stalled) below this sigma_min(J W0^-1)"
-    )
-    max_error: float = Field(
-        0.1,
-        gt=0,
-        allow_inf_nan=False,
-        description="stop (diverged) when the error exceeds the initial one by this [m]",
-    )
-    settle_time: float = Field(
-        2.0,
-        ge=0,
-        allow_inf_nan=False,
-        description="report the max tracking error after this time [s]",
-    )
-    stop_on_collision: bool = Field(
-        True, description="stop (stalled) when a collision sphere touches an obstacle"
     )
 
     @model_validator(mode="after")
@@ -240,9 +222,6 @@ class PseudoinversePlanner(Planner):
         def reference(t: float) -> Array:
             return np.concatenate([task.position(t), task.velocity(t)])
 
-        rules = StopRules(
-            settings.min_singular_value, settings.max_error, settings.stop_on_collision
-        )
         run = rollout(
             model.step,
             np.asarray(problem.start, dtype=float),
@@ -250,7 +229,7 @@ class PseudoinversePlanner(Planner):
             problem.robot,
             settings.dt,
             steps,
-            rules,
+            settings.stop_rules(),
             model.smallest_singular_value,
             progress,
         )
