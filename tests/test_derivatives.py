@@ -81,3 +81,25 @@ def test_null_basis_spans_kernel_of_pfaffian(name: str, rng: np.random.Generator
         assert abs(np.linalg.det(N.T @ B)) > 1e-6
         if robot.h:
             assert np.linalg.matrix_rank(A) == robot.h
+
+
+@pytest.mark.parametrize("name", robot_names())
+def test_bias_derivatives_match_finite_differences(name: str, rng: np.random.Generator) -> None:
+    """dc/dq and dc/d(dq), which the extended-Jacobian generator differentiates through."""
+    robot = get_robot(name)
+    s = robot.symbols
+    dc = ca.Function("dc", [s.q, s.dq], [ca.jacobian(s.bias, s.q), ca.jacobian(s.bias, s.dq)])
+    q, dq = rng.uniform(-2, 2, robot.n), rng.uniform(-2, 2, robot.n)
+    dc_dq, dc_ddq = (np.asarray(v) for v in dc(q, dq))
+    np.testing.assert_allclose(dc_dq, fd_jacobian(lambda x: robot.bias(x, dq), q), atol=1e-6)
+    np.testing.assert_allclose(dc_ddq, fd_jacobian(lambda v: robot.bias(q, v), dq), atol=1e-6)
+
+
+@pytest.mark.parametrize("name", robot_names())
+def test_null_basis_derivative_matches_finite_differences(name: str, rng: np.random.Generator) -> None:
+    robot = get_robot(name)
+    s = robot.symbols
+    dN = ca.Function("dN", [s.q], [ca.jacobian(ca.vec(s.null_basis), s.q)])
+    q = rng.uniform(-2, 2, robot.n)
+    expected = fd_jacobian(lambda x: robot.null_basis(x).ravel(order="F"), q)
+    np.testing.assert_allclose(np.asarray(dN(q)), expected, atol=1e-8)
