@@ -286,11 +286,12 @@ def test_robots_and_scenarios_listings() -> None:
         assert name in result.stdout
 
 
-@pytest.mark.parametrize("command", [[], ["plan"], ["check"], ["robots"], ["scenarios"]])
+@pytest.mark.parametrize("command", [[], ["plan"], ["check"], ["robots"], ["scenarios"],
+                                     ["report"], ["reproduce"]])
 def test_help_texts(command: list[str]) -> None:
     result = run(*command, "--help")
     assert result.exit_code == 0 and "Usage:" in result.stdout
-    if command in ([], ["plan"], ["check"]):
+    if command in ([], ["plan"], ["check"], ["report"], ["reproduce"]):
         assert "mmplan " in result.stdout and "Exit code" in result.stdout
 
 
@@ -386,3 +387,51 @@ def test_planner_input_errors_name_the_scenario_file(tmp_path: Path,
     result = run("plan", str(path), "--out", str(tmp_path / "out"))
     assert result.exit_code == 2
     assert result.stderr.strip() == f"error: {path}: planner.eta: too fast for this robot"
+
+
+def test_plan_report_flag_and_report_command(tmp_path: Path) -> None:
+    """`plan --report` writes report.html next to the plan; `report DIR` rewrites it."""
+    out = tmp_path / "run"
+    result = run("plan", str(write(tmp_path, BASE)), "--out", str(out), "--report")
+    assert result.exit_code == 3, result.output  # not reached (timeout): report written anyway
+    assert f"report: {out / 'report.html'}" in result.stdout
+    page = out / "report.html"
+    assert page.is_file() and "<html" in page.read_text()[:500].lower()
+    assert list((out / "figures").glob("*.png"))
+    page.unlink()
+    result = run("report", str(out))
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith(f"wrote {page} (") and page.is_file()
+
+
+def test_report_command_bad_input_exits_2(tmp_path: Path) -> None:
+    result = run("report", str(tmp_path / "missing"))
+    assert result.exit_code == 2 and result.stderr.startswith("error: ")
+    assert len(result.stderr.strip().splitlines()) == 1 and "missing" in result.stderr
+    (tmp_path / "empty").mkdir()
+    result = run("report", str(tmp_path / "empty"))
+    assert result.exit_code == 2 and "trajectory.csv" in result.stderr
+    assert "Traceback" not in result.output
+
+
+def test_report_without_the_extra_is_one_line(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """Without matplotlib, `mmplan report` says how to install it (exit 1, no traceback)."""
+    for name in [m for m in sys.modules if m == "mmplan.report" or m.startswith("mmplan.report.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    (tmp_path / "p").mkdir()
+    result = run("report", str(tmp_path / "p"))
+    assert result.exit_code == 1
+    assert result.stderr.strip() == ("error: mmplan report needs matplotlib: "
+                                     "pip install 'mmplan[report]'")
+
+
+def test_report_extra_is_not_imported_by_the_cli() -> None:
+    """The report (matplotlib) is an optional extra: loading the CLI and reproduce skips it."""
+    code = ("import sys, mmplan.cli, mmplan.reproduce, mmplan.reproduce_table; "
+            "bad = [m for m in sys.modules if m.startswith(('mmplan.report', 'matplotlib'))]; "
+            "assert not bad, bad; print('ok')")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=120, check=False)
+    assert result.returncode == 0 and result.stdout.strip() == "ok", result.stderr

@@ -96,7 +96,9 @@ def test_bias_derivatives_match_finite_differences(name: str, rng: np.random.Gen
 
 
 @pytest.mark.parametrize("name", robot_names())
-def test_null_basis_derivative_matches_finite_differences(name: str, rng: np.random.Generator) -> None:
+def test_null_basis_derivative_matches_finite_differences(
+    name: str, rng: np.random.Generator
+) -> None:
     robot = get_robot(name)
     s = robot.symbols
     dN = ca.Function("dN", [s.q], [ca.jacobian(ca.vec(s.null_basis), s.q)])

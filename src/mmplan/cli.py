@@ -69,6 +69,8 @@ def main() -> None:
       mmplan scenarios                               # built-in scenarios
       mmplan plan youbot3r-obstacles --out run1      # plan, write run1/
       mmplan check run1                              # re-verify run1/ independently
+      mmplan report run1                             # run1/report.html (figures, 3D)
+      mmplan reproduce --out repro                   # all paper examples vs the papers
 
     A scenario is a built-in name or a YAML file (see SPEC section 8). Exit codes:
     0 success, 2 bad input, 3 planned but the task was not reached / check failed,
@@ -136,7 +138,9 @@ class _Bar:
 @click.option("--format", "fmt", type=click.Choice(["csv", "npz"]), default="csv",
               show_default=True, help="npz also writes trajectory.npz next to trajectory.csv.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar and no metrics; exit code only.")
-def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool) -> None:
+@click.option("--report", "with_report", is_flag=True,
+              help="Also write OUT/report.html (figures and 3D animation; needs mmplan[report]).")
+def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool) -> None:
     """Plan SCENARIO (a built-in name or a YAML file) and write the plan to --out.
 
     Writes OUT/trajectory.csv (one row per sample), OUT/summary.json (status and metrics
@@ -146,6 +150,7 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool) -> None:
     \b
       mmplan plan youbot3r-obstacles --out runs/youbot
       mmplan plan my_scenario.yaml --out runs/mine --format npz
+      mmplan plan wall-segment --out runs/wall --report   # + runs/wall/report.html
 
     A minimal scenario file (start lists the coordinates shown by `mmplan robots`):
 
@@ -177,6 +182,12 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool) -> None:
         written = mmplan.write_plan(out_dir, result, problem, sc, fmt=fmt)
         if not quiet:
             _print_plan(result, mmplan.read_summary(written), written)
+        if with_report:
+            from mmplan.report import write_report  # optional extra: imported only here
+
+            page = write_report(written)
+            if not quiet:
+                out.print(f"report: {page}", markup=False)
         if not result.reached:
             raise SystemExit(3)
 
@@ -248,6 +259,79 @@ def _print_check(report: mmplan.CheckReport) -> None:
     ]
     for label, value in rows:
         out.print(f"{label + ':':23s}{value()}", markup=False)
+
+
+@main.command()
+@click.argument("plan_dir", type=click.Path(path_type=Path))
+def report(plan_dir: Path) -> None:
+    """Write PLAN_DIR/report.html and PLAN_DIR/figures/*.png for a written plan.
+
+    One self-contained HTML file (opens offline): summary table, the papers' figures for the
+    planner used and a 3D animation of the robot among the obstacles. Needs the optional
+    report extra (pip install 'mmplan[report]'). Example:
+
+    \b
+      mmplan plan youbot4r-reach --out runs/y4 && mmplan report runs/y4
+
+    Exit code 0 when written, 2 when PLAN_DIR is not a readable plan directory.
+    """
+    with _user_errors():
+        from mmplan.report import render_report_cli  # optional extra: imported only here
+
+        render_report_cli(plan_dir)
+
+
+@main.command(name="reproduce")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for the runs (OUT/<scenario>/) and the tables.")
+@click.option("--only", multiple=True, metavar="NAME",
+              help="Run only these scenarios (repeatable, comma lists; further NAMES as "
+                   "arguments); variants come with their scenario.")
+@click.option("--no-report", is_flag=True, help="Skip the per-scenario report.html (faster).")
+@click.argument("names", nargs=-1, metavar="[NAME]...")
+def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool,
+                  names: tuple[str, ...]) -> None:
+    """Plan every built-in paper scenario and compare our numbers with the papers'.
+
+    Writes OUT/<scenario>/ (plan and report.html) for each scenario of SPEC section 8 (and
+    the switched-off variants the references compare against), then OUT/REPRODUCTION.md and
+    OUT/reproduction.html: paper figure | quantity | paper | ours | difference | verdict for
+    every number the papers publish and SPEC's reference numbers, each linked to its report.
+    Examples:
+
+    \b
+      mmplan reproduce --out repro
+      mmplan reproduce --out repro --only car-rtr-free wall-segment --no-report
+
+    Exit code 0 when every scenario reached its task (even if a number differs), 3 when a
+    scenario failed to plan (its row says why), 2 for bad input.
+    """
+    with _user_errors():
+        from mmplan.reproduce import reproduce, run_specs
+
+        selected = (*only, *names)
+        total = len(run_specs(selected))  # validates the names before any work
+        with Progress(TextColumn("{task.description:<36}"), BarColumn(), TaskProgressColumn(),
+                      TimeElapsedColumn(), console=err, transient=True) as bar:
+            task = bar.add_task("reproduce", total=total)
+
+            def progress(name: str, done: float, count: int) -> None:
+                bar.update(task, description=name, completed=done)
+
+            result = reproduce(out_dir, selected, report=not no_report, progress=progress)
+        for run in result.runs:
+            mark = ("ok  " if run.status == "reached"
+                    else "FAIL" if run.spec.base is None else "    ")
+            out.print(f"{mark} {run.spec.name:36s} {run.status:10s} {run.wall_time_s:6.1f} s"
+                      + (f"  (report: {run.report_error})" if run.report_error else ""),
+                      markup=False)
+        verdicts = [row.verdict.split(" (")[0] for row in result.rows]
+        counts = ", ".join(f"{v} {verdicts.count(v)}" for v in sorted(set(verdicts)))
+        out.print(f"{len(result.rows)} numbers compared ({counts}) in {result.wall_time_s:.0f} s",
+                  markup=False)
+        out.print(f"wrote {result.markdown} and {result.html}", markup=False)
+        if result.failed:
+            raise SystemExit(3)
 
 
 if __name__ == "__main__":  # pragma: no cover

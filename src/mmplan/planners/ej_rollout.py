@@ -64,7 +64,7 @@ class RolloutOptions:
     stall_window: float = 3.0
     stall_progress: float = 1e-3
     escape: bool = True
-    escape_gain: float = 5.0
+    escape_gain: float = 4.0
     escape_time: float = 2.0
     max_escapes: int = 5
     cond_every: int = 25
@@ -151,7 +151,8 @@ def rollout(
         # Escape: tangential push while active.
         ext = np.zeros(n)
         if t < escape_until and escape_dir is not None:
-            ext = _escape_push(escape_dir, q, dq, pfaffian, winv, opt.escape_gain)
+            gain = opt.escape_gain * (1.0 + opt.gains[0] * err)  # outweighs the attraction
+            ext = _escape_push(escape_dir, q, dq, pfaffian, winv, gain)
         d = decide(out, dq, u, k == 0, ext, opt)
         u, s = d.u, d.s
         if not d.feasible:

@@ -110,7 +110,9 @@ class ExtendedJacobianSettings(PlannerSettings):
         1e-3, ge=0, description="error decrease expected over the window [m]"
     )
     escape: bool = Field(True, description="tangential push when stalled near an obstacle")
-    escape_gain: float = Field(5.0, gt=0, description="tangential push [m/s^2]")
+    escape_gain: float = Field(
+        4.0, gt=0, description="escape push per (1 + Lambda_P |e|) [m/s^2]"
+    )
     escape_time: float = Field(2.0, gt=0, description="duration of one escape push [s]")
     max_escapes: int = Field(5, ge=0)
     cond_limit: float = Field(1e8, gt=1, description="cond(E) above which the run diverged")

@@ -60,18 +60,25 @@ def feasible_interval(a: Array, b: Array, lo: Array, hi: Array) -> tuple[float, 
     Controls with a_i = 0 do not bound u; if such a control is outside [lo, hi] no u helps and
     the interval is returned empty (u_min > u_max).
     """
-    u_min, u_max = 0.0, 1.0
-    for ai, bi, li, hi_i in zip(a, b, lo, hi, strict=True):
-        if abs(ai) <= _TINY:
-            if bi < li - 1e-12 or bi > hi_i + 1e-12:
-                return 1.0, 0.0
-            continue
-        upper_lim = (hi_i - bi) / ai if np.isfinite(hi_i) else (np.inf if ai > 0 else -np.inf)
-        lower_lim = (li - bi) / ai if np.isfinite(li) else (-np.inf if ai > 0 else np.inf)
-        if ai > 0:  # cases (a) and (d)
-            u_max, u_min = min(u_max, upper_lim), max(u_min, lower_lim)
-        else:  # cases (b) and (c)
-            u_max, u_min = min(u_max, lower_lim), max(u_min, upper_lim)
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    pos, neg = a > _TINY, a < -_TINY
+    idle = ~(pos | neg)
+    if np.any(idle & ((b < lo - 1e-12) | (b > hi + 1e-12))):
+        return 1.0, 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        upper_lim = (hi - b) / np.where(idle, 1.0, a)  # +-inf where hi is infinite
+        lower_lim = (lo - b) / np.where(idle, 1.0, a)
+    # (a) and (d) for a > 0; (b) and (c) for a < 0.
+    u_max = min(
+        1.0,
+        float(np.min(upper_lim[pos], initial=np.inf)),
+        float(np.min(lower_lim[neg], initial=np.inf)),
+    )
+    u_min = max(
+        0.0,
+        float(np.max(lower_lim[pos], initial=-np.inf)),
+        float(np.max(upper_lim[neg], initial=-np.inf)),
+    )
     return u_min, u_max
 
 
@@ -100,6 +107,7 @@ def choose(u_nominal: float, a: Array, b: Array, lo: Array, hi: Array) -> Choice
         a, b: Coefficients of tau(u) = a u + b (n_act,).
         lo, hi: Safety zone (n_act,).
     """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if max_violation(u_nominal, a, b, lo, hi) <= 0.0:
         return Choice(u_nominal, True, 0.0)
     u_min, u_max = feasible_interval(a, b, lo, hi)
@@ -107,15 +115,17 @@ def choose(u_nominal: float, a: Array, b: Array, lo: Array, hi: Array) -> Choice
         u = float(np.clip(u_nominal, u_min, u_max))
         return Choice(u, True, max_violation(u, a, b, lo, hi))
     # Eq. (30) violated: the largest violation is convex and piecewise linear in u; minimize it
-    # over [0, 1] by ternary search.
+    # over [0, 1] on a grid, then on a finer grid around the best point (resolution 6e-5).
     left, right = 0.0, 1.0
-    for _ in range(80):
-        m1, m2 = left + (right - left) / 3, right - (right - left) / 3
-        if max_violation(m1, a, b, lo, hi) <= max_violation(m2, a, b, lo, hi):
-            right = m2
-        else:
-            left = m1
-    best = 0.5 * (left + right)
+    best = 0.0
+    for _ in range(2):
+        grid = np.linspace(left, right, 129)
+        tau = grid[:, None] * a[None, :] + b[None, :]
+        with np.errstate(invalid="ignore"):
+            over = np.nanmax(np.maximum(np.maximum(tau - hi, lo - tau), 0.0), axis=1)
+        k = int(np.argmin(over))
+        best = float(grid[k])
+        left, right = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, 128)])
     return Choice(best, False, max_violation(best, a, b, lo, hi))
 
 
