@@ -149,6 +149,13 @@ def test_omni3_impedance_example() -> None:
 
     without = _plan(ImpedanceSettings(b_obs=0.0, stop_on_collision=False))
     assert _centre_distance(without).min() == pytest.approx(0.2475, abs=2e-3)  # reference 0.247
+    # at the pass (t = 1.75 s, where the reference platform path is closest to the post):
+    # without impedance the distance is the reference's own, with it the platform is pushed out
+    assert without.info["pass_time_s"] == pytest.approx(1.75, abs=0.01)
+    assert without.info["platform_obstacle_distance_at_pass_m"] == pytest.approx(0.2375, abs=2e-3)
+    at_pass = with_imp.info["platform_obstacle_distance_at_pass_m"]
+    assert at_pass == pytest.approx(dist[np.argmin(abs(tr.t - 1.75))] - 0.01, abs=1e-6)
+    assert at_pass > 0.33  # SPEC reference 0.365 m (centre) at the pass
     assert without.info["min_clearance_m"] < 0  # the platform (r 0.25) touches the post
 
 

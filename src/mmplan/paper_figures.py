@@ -260,10 +260,10 @@ REFERENCES += (
               _v(OM, "planner_info", "max_error_after_settle_m"),
               source="SPEC s.5 Reference: 'end-effector error <= 3.7e-3 m for t >= 1 s'"),
     Reference("SPEC s.5", "platform-obstacle distance at the pass, with impedance", 0.365, "m",
-              _v(OM, "planner_info", "min_platform_obstacle_distance_m"), tol=0.02,
+              _v(OM, "planner_info", "platform_obstacle_distance_at_pass_m"), tol=0.02,
               relative=False, source="SPEC s.5 Reference: '0.365 m ... with impedance'"),
     Reference("SPEC s.5", "platform-obstacle distance at the pass, without impedance", 0.247,
-              "m", _v(OM0, "planner_info", "min_platform_obstacle_distance_m"), tol=0.02,
+              "m", _v(OM0, "planner_info", "platform_obstacle_distance_at_pass_m"), tol=0.02,
               relative=False, source="SPEC s.5 Reference: 'vs 0.247 m without'"),
     # ---- paper 004 (Nagatani et al.), section 5; SPEC section 7 ----------------------------
     Reference("004 s.5.5", "a straight base segment exists in the LMA", "straight", "",
