@@ -303,3 +303,22 @@ def test_online_step_matches_the_planned_rollout() -> None:
         np.testing.assert_allclose(ddq, planned.ddq[k], atol=1e-12)
         np.testing.assert_allclose(tau, planned.tau[k], atol=1e-12)
         assert u == pytest.approx(planned.u[k], abs=1e-15)
+
+
+def test_goal_near_an_obstacle_shrinks_its_neighbourhood_and_inside_is_rejected() -> None:
+    from mmplan.planners.ej_checks import fit_influence
+    from mmplan.planners.ej_dynamics import ObstacleTerm
+
+    ball = Ellipsoid((1.0, 0.0, 0.2), (0.2, 0.2, 0.2))
+    fitted = fit_influence([ObstacleTerm(ball, 0.35)], np.array([1.0, 0.4, 0.2]))
+    assert fitted[0].influence == pytest.approx(0.7 * 0.2)  # goal 0.2 m from the surface
+    far = fit_influence([ObstacleTerm(ball, 0.35)], np.array([3.0, 0.0, 0.2]))
+    assert far[0].influence == 0.35
+    with pytest.raises(InputError) as info:
+        _plan(
+            get_robot("youbot-3r"),
+            Q0_3R,
+            (3.5, 4.0, 0.16),
+            BlobScene([Blob((3.5, 4.0, 0.1), (0.1, 0.1, 0.1), None)]),
+        )
+    assert info.value.field == "goal.position"

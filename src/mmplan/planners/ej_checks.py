@@ -112,3 +112,27 @@ def check_gravity(robot: Robot, q0: Array) -> None:
             f"{robot.actuators[i]} needs {tau[i]:.3f} N m to hold the start at rest, "
             f"outside [{lo[i]}, {hi[i]}]: infeasible torque limits",
         )
+
+
+def fit_influence(obstacles: Sequence[ObstacleTerm], p_f: Array) -> list[ObstacleTerm]:
+    """Shrink each neighbourhood delta so that the goal lies outside it.
+
+    With the goal inside an obstacle's neighbourhood the perturbation (eq. (19) of 000) and the
+    attraction reach an equilibrium short of the goal (measured: stalls 0.07-0.1 m away on
+    random scenes). delta becomes min(delta, max(0.05, 0.7 C(p_f))), C the radial distance of
+    the goal to the enlarged model.
+
+    Raises:
+        InputError: the goal lies inside an enlarged obstacle (unreachable without contact).
+    """
+    p = ca.SX.sym("p", 3)
+    out = []
+    for j, ob in enumerate(obstacles):
+        c_goal = float(ca.Function("C", [p], [ob.model.radial_distance_sym(p)])(p_f))
+        if c_goal <= 0.0:
+            raise InputError(
+                "goal.position",
+                f"inside obstacle {j} or its safety margin (radial distance {c_goal:.3f} m)",
+            )
+        out.append(ObstacleTerm(ob.model, min(ob.influence, max(0.05, 0.7 * c_goal))))
+    return out

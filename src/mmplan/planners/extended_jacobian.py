@@ -222,6 +222,7 @@ class ExtendedJacobian(Planner):
             for ob in problem.scene.obstacles
         ]
         ej_checks.check_start_clearance(robot, problem.scene, obstacles, q0)
+        obstacles = ej_checks.fit_influence(obstacles, p_f)
         partition = choose_partition(robot, q0)
         build_clock = time.perf_counter()
         crit = build_criterion(robot, partition, settings.penalty_weight)

@@ -114,18 +114,19 @@ def choose(u_nominal: float, a: Array, b: Array, lo: Array, hi: Array) -> Choice
     if u_min <= u_max:
         u = float(np.clip(u_nominal, u_min, u_max))
         return Choice(u, True, max_violation(u, a, b, lo, hi))
-    # Eq. (30) violated: the largest violation is convex and piecewise linear in u; minimize it
-    # over [0, 1] on a grid, then on a finer grid around the best point (resolution 6e-5).
-    left, right = 0.0, 1.0
-    best = 0.0
-    for _ in range(2):
-        grid = np.linspace(left, right, 129)
-        tau = grid[:, None] * a[None, :] + b[None, :]
-        with np.errstate(invalid="ignore"):
-            over = np.nanmax(np.maximum(np.maximum(tau - hi, lo - tau), 0.0), axis=1)
-        k = int(np.argmin(over))
-        best = float(grid[k])
-        left, right = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, 128)])
+    # Eq. (30) violated: the largest violation max_k max(L_k(u), 0) is convex and piecewise
+    # linear in u (lines L_k = tau_k - hi_k and lo_k - tau_k over the finite limits), so its
+    # minimum over [0, 1] lies at an end, a zero of some L_k or an intersection of two L_k.
+    fin_hi, fin_lo = np.isfinite(hi), np.isfinite(lo)
+    slope = np.concatenate([a[fin_hi], -a[fin_lo]])
+    const = np.concatenate([b[fin_hi] - hi[fin_hi], lo[fin_lo] - b[fin_lo]])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cross = (const[None, :] - const[:, None]) / (slope[:, None] - slope[None, :])
+        zeros = -const / slope
+    cands = np.concatenate([[0.0, 1.0, u_nominal], zeros, cross.ravel()])
+    cands = np.clip(cands[np.isfinite(cands)], 0.0, 1.0)
+    over = np.max(np.maximum(cands[:, None] * slope[None, :] + const[None, :], 0.0), axis=1)
+    best = float(cands[int(np.argmin(over))])
     return Choice(best, False, max_violation(best, a, b, lo, hi))
 
 
