@@ -1,12 +1,15 @@
-"""Method-specific figures, drawn generically from history.csv and artifacts.npz.
+"""Method-specific figures from history.csv and artifacts.npz.
 
 * history.csv: every column against ``iteration`` (e.g. the endogenous method's error norm,
   002), log scale when positive and spanning decades;
-* artifacts.npz, keyed by name, whatever is present:
-  1-D arrays against an axis of the same length whose name contains ``freq`` (spectra, 003
-  vibration) or ``time``; 2-D grids as images (axes from 1-D arrays whose names contain ``x`` /
-  ``y`` and match the grid's shape), 3-D stacks as a few layers (manipulability area and its
-  layers, 004 Figs. 3-5, 8), point lists (K, 2) or (K, 3) as paths drawn over the grids.
+* artifacts.npz of the manipulability-area planner (004): the distribution surface, the MA
+  ring, the layered MAs in 3D with the base path and their top view
+  (:mod:`mmplan.report.figures_lma`); a tip-vibration spectrum (003,
+  :mod:`mmplan.report.figures_vibration`);
+* any other arrays, drawn generically by name and shape: 1-D arrays against an axis of the
+  same length whose name contains ``freq`` (spectra) or ``time``; 2-D grids as images (axes
+  from 1-D arrays whose names contain ``x`` / ``y`` and match the grid's shape), 3-D stacks as
+  a few layers, point lists (K, 2) or (K, 3) as paths drawn over the grids.
 """
 
 from __future__ import annotations
@@ -18,6 +21,9 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from mmplan.report.figure_kit import DPI, RenderedFigure, new_figure, render
+from mmplan.report.figures_lma import lma_figures
+from mmplan.report.figures_vibration import VIBRATION_KEYS, vibration_figure
+from mmplan.report.lma_data import OPTIONAL, REQUIRED, read_lma
 
 Array = np.ndarray
 MAX_PANELS = 6
@@ -127,8 +133,23 @@ def _draw_grid(
 
 
 def artifact_figures(artifacts: Mapping[str, Array]) -> list[RenderedFigure]:
-    """One figure per grid, stack and spectrum in artifacts.npz, plus leftover 1-D series."""
+    """The method's figures: the manipulability-area figures (004) and the vibration spectrum
+    (003) when artifacts.npz holds their data, the generic drawing for everything else."""
     arrays = {k: np.asarray(v) for k, v in artifacts.items() if np.asarray(v).dtype.kind in "fiub"}
+    out: list[RenderedFigure] = []
+    lma = read_lma(arrays)
+    if lma is not None:
+        out += lma_figures(lma)
+        arrays = {k: v for k, v in arrays.items() if k not in REQUIRED + OPTIONAL}
+    spectrum = vibration_figure(arrays)
+    if spectrum is not None:
+        out.append(spectrum)
+        arrays = {k: v for k, v in arrays.items() if k not in VIBRATION_KEYS}
+    return out + generic_figures(arrays)
+
+
+def generic_figures(arrays: Mapping[str, Array]) -> list[RenderedFigure]:
+    """One figure per grid, stack and spectrum, plus leftover 1-D series."""
     paths = {k: v.astype(float) for k, v in arrays.items() if _is_path(v)}
     out: list[RenderedFigure] = []
     used: set[str] = set(paths)
