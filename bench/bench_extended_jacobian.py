@@ -4,13 +4,17 @@ Part 1 plans ``youbot4r-reach``, ``youbot4r-reach-smooth``, ``youbot3r-obstacles
 ``youbot3r-obstacles-torque`` with the generator compiled to C (CasADi code generation) and
 prints T(1 cm) / T(1 mm), clearance (exact geometry, original obstacles), torque maxima and
 limit violation, max cond(E), peak platform speed, manipulability, and motion duration /
-compute time (rollout only, and including the one-off symbolic build and C compilation).
+compute time (after the symbolic build, and including it; C libraries cached by a warm-up
+plan), against the baseline of the step-by-step loop (``rollout(fast=False)``: one
+``terms`` and one RK4 call a step) with the same compiled functions, in the same run.
+Part 1b: accuracy and speed of youbot3r-obstacles against the step size.
 
 Part 2 times one generator step at the same state, compiled C against the baseline of the
 same CasADi SX functions evaluated by CasADi's virtual machine (not code-generated), in the
 same run: the ``terms`` call (E^-1 v1, E^-1 v2, push, damping, tau split), the RK4 ``step``
-call, and the online step a control loop would call (``terms`` + the virtual-control choice:
-state in, ddq, tau, u out).
+call, one step of a 25-step ``chunk`` call, and the online step a control loop would call
+(state in, ddq, tau, u out): ``terms`` + the NumPy virtual-control choice, and the one-call
+``OnlineGenerator.step`` (ej_decision_sym; ctypes call of the C code when compiled).
 
 Part 3 (``--random N``): N seeded random youbot-3r scenarios (goals in every direction at
 1-4 m, heights 0-0.45 m, 1-4 random cylinders/spheres/boxes near the straight line, with and
@@ -24,14 +28,21 @@ Run: ``python bench/bench_extended_jacobian.py`` (first run compiles C: about 30
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
 import time
+from collections.abc import Iterator
 
 import numpy as np
 
+from mmplan.planners import ej_rollout
 from mmplan.planners import virtual_control as vc
 from mmplan.planners.ej_criterion import build_criterion, choose_partition
+from mmplan.planners.ej_decision import decide
 from mmplan.planners.ej_dynamics import ObstacleTerm, build_functions
+from mmplan.planners.ej_online import OnlineGenerator
+from mmplan.planners.ej_rollout import RolloutOptions
 from mmplan.planners.extended_jacobian import ExtendedJacobian, ExtendedJacobianSettings
 from mmplan.scenario import load_scenario
 from mmplan.task import ReachPoint, completion_time
@@ -63,6 +74,9 @@ def plan_scenarios() -> None:
         problem = dataclasses.replace(
             problem, settings=settings.model_copy(update={"codegen": True})
         )
+        ExtendedJacobian().plan(problem)  # warm-up: compiles (once, cached) what is not cached
+        with _step_by_step():
+            baseline = ExtendedJacobian().plan(problem)
         result = ExtendedJacobian().plan(problem)
         tr, robot, task = result.trajectory, problem.robot, problem.task
         assert isinstance(task, ReachPoint)
@@ -87,11 +101,61 @@ def plan_scenarios() -> None:
         )
         if result.info.get("infeasible_samples"):
             print(f"    {result.message}")
+        base_s = baseline.compute_time_s - float(baseline.info["build_time_s"])
+        same = (
+            np.abs(baseline.trajectory.q - tr.q).max()
+            if len(baseline.trajectory.t) == len(tr.t)
+            else float("nan")
+        )
         print(
-            f"    steps {len(tr.t)}, rollout {rollout_s:.2f} s = "
-            f"{rollout_s / len(tr.t) * 1e6:.0f} us/step, "
-            f"build {result.info['build_time_s']:.1f} s, "
-            f"min perturbation scale {result.info['min_perturbation_scale']:.3f}"
+            f"    steps {len(tr.t)}, after build {rollout_s:.3f} s = "
+            f"{rollout_s / len(tr.t) * 1e6:.0f} us/step "
+            f"({result.info.get('chunked_samples', 0)} samples in chunks), "
+            f"build {result.info['build_time_s']:.2f} s (cached C), "
+            f"min perturbation scale {result.info['min_perturbation_scale']:.3f}\n"
+            f"    baseline step-by-step loop (same C functions): {base_s:.3f} s = "
+            f"motion/compute {tr.duration / base_s:.1f} -> {tr.duration / rollout_s:.1f} "
+            f"({base_s / rollout_s:.1f}x); max |q - q_baseline| = {same:.2g}"
+        )
+
+
+@contextlib.contextmanager
+def _step_by_step() -> Iterator[None]:
+    """Run plans with the rollout's step-by-step loop (no chunks): the baseline."""
+    from mmplan.planners import ej_timescale, extended_jacobian
+
+    original = ej_rollout.rollout
+    slow = functools.partial(original, fast=False)
+    extended_jacobian.rollout = ej_timescale.rollout = slow
+    try:
+        yield
+    finally:
+        extended_jacobian.rollout = ej_timescale.rollout = original
+
+
+def dt_study(name: str = "youbot3r-obstacles") -> None:
+    """Part 1b: accuracy and speed against the step size (dt = 2 ms is the reference)."""
+    problem = load_scenario(name).build()
+    task = problem.task
+    assert isinstance(task, ReachPoint)
+    print(f"\n{name}: step size study (compiled, fast path)")
+    ref: tuple[np.ndarray, np.ndarray] | None = None
+    for dt in (0.002, 0.005, 0.01, 0.02):
+        settings = problem.settings.model_copy(update={"codegen": True, "dt": dt})
+        result = ExtendedJacobian().plan(dataclasses.replace(problem, settings=settings))
+        tr = result.trajectory
+        err = np.linalg.norm(tr.ee - np.asarray(task.position), axis=1)
+        ref = ref or (tr.t, tr.ee)
+        dev = max(
+            float(np.max(np.abs(np.interp(tr.t, ref[0], ref[1][:, i]) - tr.ee[:, i])))
+            for i in range(3)
+        )
+        after_build = result.compute_time_s - float(result.info["build_time_s"])
+        t1mm = _f(completion_time(tr.t, err, 1e-3))
+        print(
+            f"  dt {dt * 1e3:4.0f} ms  {result.status.value:8s} T1mm {t1mm}"
+            f" s  |ee - ee(2 ms)| max {dev:.1e} m  motion/compute {tr.duration / after_build:7.1f}"
+            f" ({tr.duration / result.compute_time_s:5.1f} incl. build)"
         )
 
 
@@ -127,34 +191,57 @@ def time_steps() -> None:
     dq = robot.null_basis(q) @ rng.normal(size=robot.n - robot.h) * 0.1
     ext = np.zeros(robot.n)
     lo, hi = vc.safety_zone(robot.limits.torque_min, robot.limits.torque_max, 0.1)
+    options = RolloutOptions(
+        dt=0.002,
+        t_max=1.0,
+        stop_error=5e-4,
+        gains=(settings.lambda_p, settings.lambda_v, settings.lambda_ii),
+        torque_control=True,
+        zone=(lo, hi),
+        limits=(robot.limits.torque_min, robot.limits.torque_max),
+    )
     rows = {}
     for label, codegen in (("SX virtual machine (baseline)", False), ("compiled C", True)):
         fns = build_functions(
             robot, crit, obstacles, settings.varrho, settings.arm_gradient_weight, codegen=codegen
         )
+        gen = OnlineGenerator(fns, np.asarray(problem.task.position), options)
 
-        def online(fns: object = fns) -> tuple[np.ndarray, np.ndarray, float]:
+        def numpy_online(fns: object = fns) -> tuple[np.ndarray, np.ndarray, float]:
             out = fns.evaluate(q, dq, p)  # type: ignore[attr-defined]
-            f0, fv, T0, Tm = out.f0, out.fv, out.T0, out.Tm
-            choice = vc.choose(0.5, Tm @ fv, T0 + Tm @ f0, lo, hi)
-            ddq = f0 + choice.u * fv
-            return ddq, T0 + Tm @ ddq, choice.u
+            d = decide(out, dq, 0.5, False, ext, options)
+            return d.ddq, d.tau, d.u
 
-        calls = 300 if not codegen else 3000
+        def one_call(gen: OnlineGenerator = gen) -> tuple[np.ndarray, np.ndarray, float]:
+            gen.u, gen._first = 0.5, False  # same state every call
+            return gen.step(q, dq)
+
+        calls = 200 if not codegen else 2000
+        chunk = fns.chunk_steps
         rows[label] = (
             _time(lambda fns=fns: fns.evaluate(q, dq, p), calls),
-            _time(lambda fns=fns: fns.advance(q, dq, 0.5, 1.0, ext, p, 0.002), calls // 2),
-            _time(online, calls),
+            _time(lambda fns=fns: fns.advance(q, dq, 1.0, 1.0, ext, p, 0.002), calls // 2),
+            _time(lambda fns=fns: fns.run_chunk(q, dq, 1.0, 1.0, ext, p, 0.002), calls // 20)
+            / chunk,
+            _time(numpy_online, calls),
+            _time(one_call, calls),
         )
+        assert gen.fallbacks == 0
     print(
-        "\nper call [us] (youbot-3r, 3 obstacles)   terms    RK4 step   online step (ddq, tau, u)"
+        "\nper call [us] (youbot-3r, 3 obstacles)   terms   RK4 step  chunk/step"
+        "  online: terms+NumPy  one call (ddq, tau, u)"
     )
-    for label, (a, b, c) in rows.items():
-        print(f"  {label:35s} {a:8.1f} {b:10.1f} {c:12.1f}")
+    for label, r in rows.items():
+        print(f"  {label:35s} {r[0]:7.1f} {r[1]:9.1f} {r[2]:10.1f} {r[3]:20.1f} {r[4]:10.1f}")
     base, comp = rows["SX virtual machine (baseline)"], rows["compiled C"]
+    ratios = [b / c for b, c in zip(base, comp, strict=True)]
     print(
-        f"  speed-up                            {base[0] / comp[0]:8.1f} {base[1] / comp[1]:10.1f}"
-        f" {base[2] / comp[2]:12.1f}"
+        f"  speed-up C vs VM                    {ratios[0]:7.1f} {ratios[1]:9.1f} {ratios[2]:10.1f}"
+        f" {ratios[3]:20.1f} {ratios[4]:10.1f}"
+    )
+    print(
+        f"  C: one-call online step vs terms + NumPy decision: {comp[3] / comp[4]:.1f}x; "
+        f"chunk vs terms + RK4 step per step: {(comp[0] + comp[1]) / comp[2]:.1f}x"
     )
 
 
@@ -245,4 +332,5 @@ if __name__ == "__main__":
         random_scenarios(int(sys.argv[2]))
     else:
         plan_scenarios()
+        dt_study()
         time_steps()

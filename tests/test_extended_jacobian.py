@@ -322,3 +322,83 @@ def test_goal_near_an_obstacle_shrinks_its_neighbourhood_and_inside_is_rejected(
             BlobScene([Blob((3.5, 4.0, 0.1), (0.1, 0.1, 0.1), None)]),
         )
     assert info.value.field == "goal.position"
+
+
+@pytest.mark.parametrize(
+    ("name", "t_max"),
+    [("youbot4r-reach", 2.0), ("youbot4r-reach-smooth", 2.0), ("youbot3r-obstacles", 1.2)],
+)
+def test_chunked_fast_path_reproduces_the_step_by_step_loop(name: str, t_max: float) -> None:
+    """The chunked fast path (ej_fastpath, ej_step; with the virtual-control choice inside the
+    chunk for youbot4r-reach-smooth, ej_feedback) gives the loop's samples to ~1e-9."""
+    import dataclasses
+
+    from mmplan.planners.ej_dynamics import wheel_metric_inverse
+    from mmplan.planners.ej_rollout import rollout
+    from mmplan.scenario import load_scenario
+
+    problem = load_scenario(name).build()
+    settings = problem.settings.model_copy(update={"t_max": t_max})
+    problem = dataclasses.replace(problem, settings=settings)
+    prep = ExtendedJacobian._prepare(problem)
+    assert prep.fns.chunk is not None
+    args = (prep.fns, problem.robot.pfaffian, wheel_metric_inverse(problem.robot), prep.q0)
+    fast = rollout(*args, prep.p_f, prep.options, fast=True)
+    ref = rollout(*args, prep.p_f, prep.options, fast=False)
+    assert fast.status is ref.status and len(fast.t) == len(ref.t) > 200
+    assert fast.info["chunked_samples"] > 0.9 * len(fast.t) and ref.info["chunked_samples"] == 0
+    np.testing.assert_array_equal(fast.t, ref.t)
+    for got, want in ((fast.q, ref.q), (fast.dq, ref.dq), (fast.tau, ref.tau)):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * max(1.0, np.abs(want).max()))
+    np.testing.assert_allclose(fast.ddq, ref.ddq, rtol=0, atol=1e-8 * np.abs(ref.ddq).max())
+    np.testing.assert_allclose(fast.u, ref.u, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast.s, ref.s, rtol=0, atol=1e-12)
+    assert fast.info["max_cond_E"] == pytest.approx(ref.info["max_cond_E"], rel=1e-9)
+
+
+def test_symbolic_virtual_control_choice_matches_numpy_cases() -> None:
+    """ej_decision_sym.choose_sym equals virtual_control.choose wherever eq. (30) holds."""
+    from mmplan.planners import virtual_control as vc
+    from mmplan.planners.ej_decision_sym import choose_sym
+
+    lo = np.array([-1.5, -1.5, -1.0, -np.inf, -5.0])
+    hi = np.array([1.5, 1.5, np.inf, 0.0, 0.0])
+    un, a_s, b_s = ca.SX.sym("u"), ca.SX.sym("a", 5), ca.SX.sym("b", 5)
+    fn = ca.Function("c", [un, a_s, b_s], list(choose_sym(un, a_s, b_s, lo, hi)))
+    rng = np.random.default_rng(11)
+    seen = {"inside": 0, "clipped": 0, "infeasible": 0}
+    for _ in range(400):
+        a, b = rng.normal(0, 2, 5), rng.normal(0, 1.5, 5)
+        a[rng.random(5) < 0.15] = 0.0  # controls that u does not move
+        u_nom = float(rng.uniform(0, 1))
+        ref = vc.choose(u_nom, a, b, lo, hi)
+        u, ok = (float(v) for v in fn(u_nom, a, b))
+        if ref.feasible:
+            assert ok == 1.0 and u == pytest.approx(ref.u, abs=1e-14)
+            seen["inside" if ref.u == u_nom else "clipped"] += 1
+        else:
+            assert ok == 0.0
+            seen["infeasible"] += 1
+    assert min(seen.values()) > 20
+
+
+def test_online_step_is_one_call_that_matches_the_numpy_decision() -> None:
+    """The online function (ej_decision_sym) gives decide()'s ddq, tau, u along a rollout."""
+    robot = _wheel_limited(get_robot("youbot-4r"), 0.2)
+    settings = ExtendedJacobianSettings.model_validate({"dt": 0.005, "t_max": 0.2})
+    problem = Problem(robot, BlobScene([]), ReachPoint((2.0, 1.0, 0.3), 1e-3), Q0_4R, settings)  # type: ignore[arg-type]
+    from mmplan.planners.ej_dynamics import wheel_metric_inverse
+    from mmplan.planners.ej_rollout import rollout
+
+    prep = ExtendedJacobian._prepare(problem)
+    winv = wheel_metric_inverse(robot)
+    # The step-by-step loop decides every sample with NumPy (ej_decision.decide).
+    planned = rollout(prep.fns, robot.pfaffian, winv, prep.q0, prep.p_f, prep.options, fast=False)
+    online = ExtendedJacobian().online(problem)
+    assert 0.0 < planned.u[-1] < 1.0  # the choice is exercised
+    for k in range(len(planned.t)):
+        ddq, tau, u = online.step(planned.q[k], planned.dq[k])
+        np.testing.assert_allclose(ddq, planned.ddq[k], atol=1e-12)
+        np.testing.assert_allclose(tau, planned.tau[k], atol=1e-12)
+        assert u == pytest.approx(planned.u[k], abs=1e-15)
+    assert online.fallbacks == 0  # every sample was decided inside the one call

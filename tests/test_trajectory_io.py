@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -91,7 +92,8 @@ def test_summary_keys_values_and_side_files(tmp_path: Path, rng: np.random.Gener
     write_plan(tmp_path / "p", result, sc.build(), sc)
     summary = json.loads((tmp_path / "p" / "summary.json").read_text())
     assert list(summary)[: len(SPEC_KEYS)] == SPEC_KEYS
-    assert set(summary) - set(SPEC_KEYS) == {"message", "scenario", "planner_info"}
+    assert set(summary) - set(SPEC_KEYS) == {"message", "scenario", "planner_info",
+                                             "check_passed", "check_failures"}
     assert summary["status"] == "stalled" and summary["planner"] == METHOD
     assert summary["planner_info"] == {"iterations": 12, "cond_max": 3.5}
     assert summary["compute_time_s"] == 0.25 and summary["samples"] == 37
@@ -141,15 +143,43 @@ def test_failed_write_leaves_no_partial_output(tmp_path: Path, rng: np.random.Ge
     assert [p.name for p in tmp_path.iterdir()] == ["plan"]
 
 
-def test_successful_write_replaces_existing_directory(tmp_path: Path,
-                                                      rng: np.random.Generator) -> None:
+def test_successful_write_replaces_existing_plan_directory(tmp_path: Path,
+                                                           rng: np.random.Generator) -> None:
     sc = make_scenario()
     out = tmp_path / "plan"
-    out.mkdir()
-    (out / "stale.txt").write_text("old")
     write_plan(out, make_result(rng), sc.build(), sc)
-    assert not (out / "stale.txt").exists() and (out / "trajectory.csv").exists()
+    (out / "report.html").write_text("old report")  # mmplan's own files may be replaced
+    write_plan(out, make_result(rng), sc.build(), sc)
+    assert not (out / "report.html").exists() and (out / "trajectory.csv").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["plan"]
+    assert (out.stat().st_mode & 0o777) == 0o777 & ~_umask()  # not mkdtemp's 0700
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def test_write_never_replaces_a_folder_with_foreign_content(tmp_path: Path,
+                                                            rng: np.random.Generator) -> None:
+    """Review defect 1: --out on a user's folder must not delete its content."""
+    sc, result = make_scenario(), make_result(rng)
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "thesis.tex").write_text("precious")
+    with pytest.raises(InputError, match="exists and is not a plan directory"):
+        write_plan(out, result, sc.build(), sc)
+    write_plan(tmp_path / "p", result, sc.build(), sc)
+    (tmp_path / "p" / "notes.txt").write_text("mine")  # a plan folder the user added to
+    with pytest.raises(InputError, match="not a plan directory"):
+        write_plan(tmp_path / "p", result, sc.build(), sc)
+    assert (out / "thesis.tex").read_text() == "precious"
+    assert (tmp_path / "p" / "notes.txt").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine", "p"]  # no .old-/.tmp- left
+    (tmp_path / "empty").mkdir()  # an empty folder is fine
+    write_plan(tmp_path / "empty", result, sc.build(), sc)
+    assert (tmp_path / "empty" / "summary.json").is_file()
 
 
 def test_bad_inputs_raise_input_errors(tmp_path: Path, rng: np.random.Generator) -> None:
@@ -178,6 +208,23 @@ def test_check_of_read_back_plan_equals_check_in_memory(tmp_path: Path,
     summary = json.loads((tmp_path / "p" / "summary.json").read_text())
     expected = check(tr, sc2.build()).summary(status="stalled", planner=METHOD,
                                               compute_time_s=0.25)
+    report = check(tr, sc2.build(), status="stalled")
+    expected.update(check_passed=report.ok, check_failures=report.failures())
     expected.update(message="stuck near x = 0.3", scenario="io",
                     planner_info={"iterations": 12, "cond_max": 3.5})
     assert summary == expected
+
+
+def test_non_finite_numbers_are_written_as_null(tmp_path: Path, rng: np.random.Generator) -> None:
+    """Review defect 5: no "nan" strings (nor NaN/Infinity tokens) in summary.json."""
+    sc, base = make_scenario(), make_result(rng)
+    result = PlanResult(base.status, base.trajectory, base.planner, base.message, 0.25,
+                        info={"manipulability_threshold": float("nan"), "cond": float("inf"),
+                              "series": [1.0, float("-inf")]})
+    write_plan(tmp_path / "p", result, sc.build(), sc)
+    text = (tmp_path / "p" / "summary.json").read_text()
+    assert "nan" not in text.lower() and "inf" not in text.lower().replace("planner_info", "")
+    summary = json.loads(text)
+    assert summary["manipulability_threshold"] is None
+    assert summary["planner_info"] == {"manipulability_threshold": None, "cond": None,
+                                       "series": [1.0, None]}

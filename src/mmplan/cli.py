@@ -145,7 +145,14 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
 
     Writes OUT/trajectory.csv (one row per sample), OUT/summary.json (status and metrics
     recomputed by the independent checker) and OUT/scenario.yaml (the scenario with every
-    default filled in). Examples:
+    default filled in).
+
+    The plan is re-verified by the same independent checks as `mmplan check`; a failed
+    check is printed (FAIL ...) and recorded in summary.json (check_passed: false,
+    check_failures), status keeps what the planner said. --out must be a new folder, an
+    empty one or an earlier plan folder (anything else is never replaced).
+
+    Examples:
 
     \b
       mmplan plan youbot3r-obstacles --out runs/youbot
@@ -163,14 +170,20 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
         - {shape: sphere, center: [1.0, 0.3, 0.4], radius: 0.1}
       planner: {method: extended-jacobian, t_max: 60}
 
-    Exit code 0 when the task was reached, 3 when planning ended without reaching it
-    (summary.json says why), 2 for bad input.
+    Exit code 0 when the task was reached and every check holds, 3 when planning ended
+    without reaching it (summary.json says why) or a check failed, 2 for bad input.
     """
     with _user_errors():
+        from mmplan.trajectory_io import check_out_dir
+
+        if Path(scenario).is_dir():
+            raise mmplan.InputError("SCENARIO", f"{scenario} is a directory; give a scenario "
+                                    "file or a built-in name (`mmplan scenarios`)")
         sc = mmplan.load_scenario(scenario)
+        check_out_dir(out_dir)  # before planning: refuse a folder we would not replace
         problem = sc.build()
         planner = mmplan.get_planner(sc.method)()
-        bar = _Bar(enabled=not quiet)
+        bar = _Bar(enabled=not quiet and err.is_terminal)  # no bar (nor its newline) in logs
         try:
             result = planner.plan(problem, progress=bar)
         except mmplan.ScenarioError:
@@ -180,15 +193,19 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
         finally:
             bar.close()
         written = mmplan.write_plan(out_dir, result, problem, sc, fmt=fmt)
+        summary = mmplan.read_summary(written)
         if not quiet:
-            _print_plan(result, mmplan.read_summary(written), written)
+            _print_plan(result, summary, written)
+        failures = [str(f) for f in summary.get("check_failures", [])]
+        for line in failures:
+            err.print(f"FAIL {line}", markup=False, soft_wrap=True)
         if with_report:
             from mmplan.report import write_report  # optional extra: imported only here
 
             page = write_report(written)
             if not quiet:
                 out.print(f"report: {page}", markup=False)
-        if not result.reached:
+        if not result.reached or failures:
             raise SystemExit(3)
 
 
@@ -213,8 +230,9 @@ def check_cmd(directory: Path) -> None:
 
     Recomputes from q alone: end effector by forward kinematics, clearance to the original
     obstacles by exact geometry, joint and torque limits, Pfaffian residual |A(q) dq|,
-    dq against q, completion times T(1 cm), T(1 mm); and checks that the status in
-    summary.json agrees with the task error. Example:
+    dq against q, completion times T(1 cm), T(1 mm); checks that the status in
+    summary.json agrees with the task error and that every SPEC number in summary.json
+    agrees with the recomputed one (relative 1e-6). Example:
 
     \b
       mmplan check runs/youbot
@@ -222,13 +240,18 @@ def check_cmd(directory: Path) -> None:
     Exit code 0 when every check holds, 3 naming each failed check, 2 on unreadable input.
     """
     with _user_errors():
+        from mmplan.check_summary import summary_disagreements
+
+        if directory.exists() and not directory.is_dir():
+            raise mmplan.InputError(str(directory), "is a file; give a plan directory "
+                                    "(written by mmplan plan --out DIR)")
         trajectory, sc = mmplan.read_plan(directory)
         claimed = mmplan.read_summary(directory)
         status = claimed.get("status")
         report = mmplan.check(trajectory, sc.build(),
                               status=None if status is None else str(status))
         _print_check(report)
-        failures = report.failures()
+        failures = report.failures() + summary_disagreements(claimed, report, sc.method)
         for line in failures:
             err.print(f"FAIL {line}", markup=False, soft_wrap=True)
         if failures:
@@ -312,7 +335,8 @@ def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool,
         selected = (*only, *names)
         total = len(run_specs(selected))  # validates the names before any work
         with Progress(TextColumn("{task.description:<36}"), BarColumn(), TaskProgressColumn(),
-                      TimeElapsedColumn(), console=err, transient=True) as bar:
+                      TimeElapsedColumn(), console=err, transient=True,
+                      disable=not err.is_terminal) as bar:
             task = bar.add_task("reproduce", total=total)
 
             def progress(name: str, done: float, count: int) -> None:

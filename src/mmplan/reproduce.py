@@ -87,7 +87,8 @@ class Reproduction:
 
 
 def run_specs(only: Iterable[str] = ()) -> tuple[RunSpec, ...]:
-    """The runs to make, in order; ``only`` selects scenarios (their variants come along).
+    """The runs to make, in order; ``only`` selects scenarios (their variants come along) and
+    may also name the built-in scenarios that have no paper numbers (run only when named).
 
     Raises:
         InputError: a name in ``only`` is neither a paper scenario nor a variant.
@@ -100,6 +101,8 @@ def run_specs(only: Iterable[str] = ()) -> tuple[RunSpec, ...]:
     wanted = [n.strip() for item in only for n in item.split(",") if n.strip()]
     if not wanted:
         return tuple(specs)
+    # built-in scenarios without paper numbers run only when named (e.g. wall-segment-limits)
+    specs += [RunSpec(name, "") for name in builtin_scenarios() if name not in SCENARIOS]
     known = [s.name for s in specs]
     for name in wanted:
         if name not in known:

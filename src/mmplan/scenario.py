@@ -39,7 +39,8 @@ def builtin_scenarios() -> dict[str, Path]:
     return dict(sorted(found.items()))
 
 
-def load_scenario(name_or_path: str | Path, *, require_planner: bool = True) -> Scenario:
+def load_scenario(name_or_path: str | Path, *, require_planner: bool = True,
+                  check_start: bool = True) -> Scenario:
     """Load and validate a scenario from a file path or a built-in scenario name.
 
     An existing file wins over a built-in scenario of the same name.
@@ -48,6 +49,8 @@ def load_scenario(name_or_path: str | Path, *, require_planner: bool = True) -> 
         name_or_path: File path or built-in name (see :func:`builtin_scenarios`).
         require_planner: When False, a method that is not installed is accepted and its
             settings are kept unvalidated (for checking plans made elsewhere).
+        check_start: When False, a start outside the joint limits or in collision is
+            accepted (``mmplan check`` then reports it as a failed check instead).
 
     Raises:
         ScenarioError: the file is missing, not YAML, or fails validation.
@@ -64,7 +67,8 @@ def load_scenario(name_or_path: str | Path, *, require_planner: bool = True) -> 
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(source, "", f"cannot read: {exc}") from None
-    return Scenario.from_dict(parse_yaml(text, source), source, require_planner=require_planner)
+    return Scenario.from_dict(parse_yaml(text, source), source, require_planner=require_planner,
+                              check_start=check_start)
 
 
 def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
@@ -95,7 +99,7 @@ class Scenario:
     """
 
     def __init__(self, spec: ScenarioSpec, source: str = "<scenario>", *,
-                 require_planner: bool = True) -> None:
+                 require_planner: bool = True, check_start: bool = True) -> None:
         self.spec = spec
         self.source = source
         try:
@@ -108,7 +112,8 @@ class Scenario:
             self.task: Task = _task(spec.goal)
             self.scene = Scene(tuple(_obstacle(o.model_dump(exclude_none=True), i)
                                      for i, o in enumerate(spec.obstacles)))
-            _check_start(self.robot, self.scene, self.start)
+            if check_start:
+                _check_start(self.robot, self.scene, self.start)
         except ScenarioError:
             raise
         except InputError as exc:
@@ -116,13 +121,13 @@ class Scenario:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "<scenario>", *,
-                  require_planner: bool = True) -> Scenario:
+                  require_planner: bool = True, check_start: bool = True) -> Scenario:
         """Validate a scenario given as a mapping (the parsed YAML); see :func:`load_scenario`."""
         try:
             spec = ScenarioSpec.model_validate(dict(data))
         except ValidationError as exc:
             raise validation_error(exc, dict(data), source) from None
-        return cls(spec, source, require_planner=require_planner)
+        return cls(spec, source, require_planner=require_planner, check_start=check_start)
 
     @property
     def name(self) -> str:
@@ -272,7 +277,7 @@ def _check_start(robot: Robot, scene: Scene, start: Array) -> None:
     if gap[p, o] < 0:
         x, y, z = points[p]
         raise InputError("start", f"in collision: robot point {p} (on {robot.collision[p].body}, "
-                         f"at ({x:.3f}, {y:.3f}, {z:.3f})) is {-gap[p, o]:.4f} m inside "
+                         f"at ({x:.3f}, {y:.3f}, {z:.3f})) is {-gap[p, o]:.6g} m inside "
                          f"obstacles[{o}]")
 
 

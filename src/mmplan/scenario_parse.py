@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -85,8 +86,10 @@ def _problem(error: Mapping[str, Any]) -> str:
         return "unknown key"
     if kind == "missing":
         return "required key missing"
-    if kind == "finite_number":
-        return f"expected a finite number, got {error['input']!r}"
+    value = error.get("input")
+    nan = isinstance(value, float) and math.isnan(value)
+    if kind == "finite_number" or (nan and kind != "value_error"):  # not "should be <= 1"
+        return f"expected a finite number, got {value!r}"
     msg = msg.removeprefix("Value error, ")
     msg = msg[:1].lower() + msg[1:]
     if kind.endswith("_type") or kind.endswith("_parsing"):

@@ -1,7 +1,8 @@
 """Schema of scenario files (pydantic v2): every key, its type, range and default.
 
-The schema validates what can be checked without the robot: types, finite numbers, vector
-lengths, positive sizes, min <= max inside one range, unknown keys (``extra="forbid"``).
+The schema validates what can be checked without the robot: types, finite numbers (of
+magnitude at most ``MAX_MAGNITUDE`` = 1e6, torque limits excepted), vector lengths,
+positive sizes, min <= max inside one range, unknown keys (``extra="forbid"``).
 Checks that need the robot or the planner (lengths of ``start`` and ``limits``, joint limits
 at the start, collisions, planner settings) live in :mod:`mmplan.scenario`.
 
@@ -44,9 +45,22 @@ from typing import Annotated, Any, Literal
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
-Finite = Annotated[float, Field(strict=True, allow_inf_nan=False)]
-Positive = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0)]
-NonNegative = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+#: Largest magnitude of any scenario number except torque limits (m, rad, s): far beyond any
+#: robot workspace, small enough that squares and sums stay exact enough in float64.
+MAX_MAGNITUDE = 1e6
+
+
+def _in_range(value: float) -> float:
+    if abs(value) > MAX_MAGNITUDE:
+        raise ValueError(f"|{value:.6g}| is out of range: magnitudes must be <= {MAX_MAGNITUDE:g}")
+    return value
+
+
+Finite = Annotated[float, Field(strict=True, allow_inf_nan=False), AfterValidator(_in_range)]
+Positive = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0),
+                     AfterValidator(_in_range)]
+NonNegative = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0),
+                        AfterValidator(_in_range)]
 
 
 def _not_nan(value: float) -> float:
@@ -187,6 +201,12 @@ class SegmentSpec(Strict):
             raise fail("end", "equals start; a segment needs two distinct points")
         if not any(self.normal):
             raise fail("normal", "must be a non-zero vector")
+        d = [b - a for a, b in zip(self.start, self.end, strict=True)]
+        n = self.normal
+        cross = (d[1] * n[2] - d[2] * n[1], d[2] * n[0] - d[0] * n[2], d[0] * n[1] - d[1] * n[0])
+        if math.hypot(*cross) <= 1e-6 * math.hypot(*d) * math.hypot(*n):
+            raise fail("normal", "is parallel to the segment end - start; the surface normal "
+                                 "must be transverse to the segment")
         return self
 
 

@@ -6,7 +6,9 @@ A plan directory holds
   (``t, q.*, dq.*, ddq.*, [tau.*, u, extra], ee.x, ee.y, ee.z``), every value with 17
   significant digits (round-trips float64 exactly);
 * ``summary.json``: SPEC keys with values from the independent checker
-  (:func:`mmplan.check.check`), plus ``message``, ``scenario`` and ``planner_info``;
+  (:func:`mmplan.check.check`), plus ``check_passed`` and ``check_failures`` (the checker's
+  verdict, one line per failed check), ``message``, ``scenario`` and ``planner_info``;
+  non-finite numbers are written as null;
 * ``scenario.yaml``: the resolved scenario (every default filled in);
 * ``history.csv`` (when the planner recorded per-iteration series), ``artifacts.npz`` (when it
   produced arrays for reports), ``trajectory.npz`` (with ``fmt="npz"``, besides the CSV).
@@ -23,6 +25,7 @@ import math
 import os
 import shutil
 import tempfile
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -46,29 +49,97 @@ def write_plan(out_dir: str | Path, result: PlanResult, problem: Problem, scenar
     """Write a plan directory atomically; returns its path.
 
     Args:
-        out_dir: Directory to create (replaced if it exists, once the new one is complete).
+        out_dir: Directory to create; an existing empty or plan directory is replaced once
+            the new one is complete (permissions 0777 & ~umask, like ``mkdir``).
         result: The planner's result.
         problem: The problem it solved (for the checker).
         scenario: The scenario (written resolved as scenario.yaml).
         fmt: ``"csv"`` (trajectory.csv only) or ``"npz"`` (trajectory.npz too).
 
     Raises:
-        InputError: bad ``fmt``, or ``out_dir`` exists and is not a directory.
+        InputError: bad ``fmt``; ``out_dir`` is an existing file, a non-empty directory that
+            is not a plan directory (:func:`is_plan_dir`), the root or the working
+            directory; or it cannot be created or written.
     """
     if fmt not in FORMATS:
         raise InputError("--format", f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError("--out", f"{out} exists and is not a directory")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    out = check_out_dir(out_dir)
     try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    except OSError as exc:
+        raise InputError("--out", f"cannot create {out}: {exc.strerror or exc}") from None
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; a plan folder is a normal one
         _write_all(tmp, result, problem, scenario, fmt)
         _replace(tmp, out)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise InputError("--out", f"cannot write {out}: {exc.strerror or exc}") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
+
+
+#: Entries a plan directory may hold (everything mmplan writes into one); a folder holding
+#: anything else is never replaced by :func:`write_plan`.
+PLAN_REQUIRED = ("summary.json", "trajectory.csv", "scenario.yaml")
+PLAN_FILES = frozenset((*PLAN_REQUIRED, "history.csv", "artifacts.npz", "trajectory.npz",
+                        "report.html", "figures"))
+
+
+def is_plan_dir(folder: Path) -> bool:
+    """True when ``folder`` holds the three plan files and nothing mmplan does not write."""
+    try:
+        names = {p.name for p in folder.iterdir()}
+    except OSError:
+        return False
+    if not set(PLAN_REQUIRED) <= names or not names <= PLAN_FILES:
+        return False
+    figures = folder / "figures"
+    if figures.exists():
+        if figures.is_symlink() or not figures.is_dir():
+            return False
+        return all(f.suffix == ".png" and f.is_file() for f in figures.iterdir())
+    return True
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def check_out_dir(out_dir: str | Path) -> Path:
+    """``out_dir`` (absolute) when write_plan may create or replace it, else InputError.
+
+    Accepted: a path that does not exist yet, an empty directory, or a plan directory
+    (:func:`is_plan_dir`). Rejected: the file-system root, the working directory or one of
+    its ancestors, an existing file, any other existing directory.
+    """
+    text = str(out_dir)
+    if not text.strip():
+        raise InputError("--out", "empty path")
+    out = Path(out_dir)
+    try:
+        full = out.resolve()
+        cwd = Path.cwd().resolve()
+    except (OSError, RuntimeError) as exc:
+        raise InputError("--out", f"{out}: {exc}") from None
+    if full == cwd or full in cwd.parents or full.parent == full:
+        raise InputError("--out", f"{out} is the working directory, one of its parents or the "
+                         "root; name a new folder")
+    if out.is_symlink() or (out.exists() and not out.is_dir()):
+        raise InputError("--out", f"{out} exists and is not a directory")
+    if out.is_dir():
+        try:
+            empty = not any(out.iterdir())
+        except OSError as exc:
+            raise InputError("--out", f"{out}: {exc.strerror or exc}") from None
+        if not empty and not is_plan_dir(out):
+            raise InputError("--out", f"{out} exists and is not a plan directory")
+    return Path(full)
 
 
 def _replace(tmp: Path, out: Path) -> None:
@@ -77,7 +148,11 @@ def _replace(tmp: Path, out: Path) -> None:
         os.replace(tmp, out)
         return
     old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-    os.replace(out, old / "plan")
+    try:
+        os.replace(out, old / "plan")
+    except BaseException:
+        old.rmdir()
+        raise
     try:
         os.replace(tmp, out)
     except BaseException:
@@ -96,9 +171,11 @@ def _write_all(folder: Path, result: PlanResult, problem: Problem, scenario: Sce
                fmt: str) -> None:
     tr = result.trajectory
     write_csv(folder / "trajectory.csv", *tr.columns())
-    report = check(tr, problem)
-    summary = report.summary(status=str(result.status.value), planner=result.planner,
+    status = str(result.status.value)
+    report = check(tr, problem, status=status)
+    summary = report.summary(status=status, planner=result.planner,
                              compute_time_s=float(result.compute_time_s))
+    summary.update(check_passed=report.ok, check_failures=report.failures())
     for key in SURFACED_INFO:  # planner numbers the issues ask for at the top level
         if key in result.info:
             summary[key] = result.info[key]
@@ -136,7 +213,11 @@ def write_csv(path: Path, names: list[str], data: Array) -> None:
 
 
 def _jsonable(value: Any) -> Any:
-    """JSON-safe copy: numpy scalars/arrays to Python, non-finite floats to strings."""
+    """JSON-safe copy: numpy scalars/arrays to Python, non-finite floats to null.
+
+    JSON has no NaN or inf; a number that does not exist (a manipulability of an infeasible
+    run, an unbounded limit) is written as null, never as a string.
+    """
     if isinstance(value, Mapping):
         return {str(k): _jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
@@ -146,7 +227,7 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, np.generic):
         return _jsonable(value.item())
     if isinstance(value, float) and not math.isfinite(value):
-        return str(value)  # "nan", "inf": JSON has no such numbers; never silently null
+        return None
     if value is None or isinstance(value, bool | int | float | str):
         return value
     return str(value)
@@ -162,12 +243,14 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     try:
         with path.open(encoding="utf-8") as fh:
             header = fh.readline().strip().split(",")
-            data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
+            with warnings.catch_warnings():  # "no data" is reported below as one line
+                warnings.simplefilter("ignore", UserWarning)
+                data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
     except OSError as exc:
         raise InputError(str(path), f"cannot read: {exc.strerror or exc}") from None
     except ValueError as exc:
         raise InputError(str(path), f"malformed numbers: {exc}") from None
-    if data.shape[0] == 0:
+    if data.size == 0:
         raise InputError(str(path), "no samples")
     if data.shape[1] != len(header):
         raise InputError(str(path), f"{len(header)} header names but {data.shape[1]} columns")
@@ -212,7 +295,8 @@ def read_plan(directory: str | Path) -> tuple[Trajectory, Scenario]:
     for name in ("trajectory.csv", "scenario.yaml"):
         if not (folder / name).is_file():
             raise InputError(str(folder), f"not a plan directory: {name} missing")
-    scenario = load_scenario(folder / "scenario.yaml", require_planner=False)
+    # no start checks: a start in collision or outside the limits is a failed check, not bad input
+    scenario = load_scenario(folder / "scenario.yaml", require_planner=False, check_start=False)
     return read_trajectory_csv(folder / "trajectory.csv"), scenario
 
 

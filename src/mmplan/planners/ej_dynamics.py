@@ -19,28 +19,34 @@ One symbolic model, two CasADi functions (optionally code-generated to C and com
   a = Tm fv and b = T0 + Tm f0 + s Tm (fp - S dq) (s: perturbation budget, 1 without limits);
 * err = |k(q) - p_f|; Tg: the gravity part of T0 (T0 at dq = 0); gK = dK/dq (n,).
 
-``step(q, dq, u, s, ext, p, dt) -> (q+, dq+)``: one step of dt. The damping -s S(q) dq is
-integrated exactly, dq *= exp(-s S dt / 2), before and after one RK4 step of
+``step(q, dq, u, s, ext, p, dt) -> (q+, dq+)`` (:mod:`mmplan.planners.ej_step`): one step of
+dt. The damping -s S(q) dq is integrated exactly, dq *= exp(-s S dt / 2), before and after
+one RK4 step of
 ddq = f0 + u fv + s fp + P ext (Strang splitting, SPEC "Stiffness"); u, s, ext are held.
 """
 
 from __future__ import annotations
 
-import hashlib
-import os
-import shutil
-import subprocess
-import tempfile
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.planners import codegen as cg
+from mmplan.planners import ej_step
 from mmplan.planners.ej_criterion import Criterion
+from mmplan.planners.ej_step import (
+    CHUNK,
+    StepParts,
+    build_chunk,
+    build_record_step,
+    reference_step,
+    step_wrapper,
+)
 from mmplan.robot.robot import Robot
 
 Array = NDArray[np.float64]
@@ -48,6 +54,9 @@ Array = NDArray[np.float64]
 #: C compiler flags of the generated generator (measured: -O2 about 2x faster than -O1 here,
 #: -O3 -ffast-math no faster and 3x slower to compile).
 CFLAGS = ("-O2", "-march=native")
+
+#: Source files whose code shapes the compiled library (part of its cache key).
+_SOURCES = (__file__, ej_step.__file__)
 
 
 class SmoothObstacle(Protocol):
@@ -87,11 +96,14 @@ def obstacle_penalty(
         c_floor: C is clamped below at this value [m] (the barrier is then ~(delta/c_floor)^2).
     """
     total = ca.SX(0)
+    point = ca.SX.sym("point", 3)
     for ob in obstacles:
-        for j in range(points.shape[1]):
-            C = ca.fmax(ob.model.radial_distance_sym(points[:, j]), c_floor)
-            kappa = ((ob.influence - C) / C) ** 2
-            total += ca.if_else(ob.influence > C, kappa, 0.0)
+        # One expression per obstacle, mapped over the points (same operations, ~40x faster
+        # to build than one Python-level expression per point).
+        C = ca.fmax(ob.model.radial_distance_sym(point), c_floor)
+        kappa = ca.if_else(ob.influence > C, ((ob.influence - C) / C) ** 2, 0.0)
+        per_point = ca.Function("kappa", [point], [kappa]).map(points.shape[1])
+        total += ca.sum2(per_point(points))
     return total
 
 
@@ -114,19 +126,26 @@ class Terms:
 class GeneratorFunctions:
     """The generator functions and their sizes (see the module docstring).
 
-    ``terms`` and ``step`` are the SX reference functions; ``terms_flat`` (x = [q; dq; p])
-    and ``step_flat`` (x = [q; dq; u; s; ext; p; dt]) compute the same with one input and
-    one output each (one NumPy conversion a call), compiled to C when ``compiled``.
+    ``terms`` and ``step`` are the SX reference functions (``step`` only when not compiled);
+    ``terms_flat`` (x = [q; dq; p]) and ``step_flat`` (x = [q; dq; u; s; ext; p; dt])
+    compute the same with one input and one output each (one NumPy conversion a call),
+    compiled to C when ``compiled`` (then ``step_flat`` is the fused step of
+    :mod:`ej_step`, equal to rounding); ``chunk`` runs ``chunk_steps`` steps with records
+    in one call.
     """
 
+    step: ca.Function | None  # SX reference step (None when compiled)
     terms: ca.Function
-    step: ca.Function
     E: ca.Function
     n: int
     n_act: int
     compiled: bool
     terms_flat: ca.Function
     step_flat: ca.Function
+    chunk: ca.Function | None = None
+    chunk_steps: int = CHUNK
+    record: ca.Function | None = None  # the fused step (x, par) -> (x_next, rec) of ej_step
+    cache: dict[str, Any] = field(default_factory=dict)  # functions built later (ej_feedback)
 
     def evaluate(self, q: Array, dq: Array, p: Array) -> Terms:
         """``terms`` at (q, dq) with parameters p = [p_f, Lambda_P, Lambda_V, Lambda_II]."""
@@ -136,6 +155,17 @@ class GeneratorFunctions:
         f0, fv, fp, S, T0, Tm, err, Tg, gK = np.split(v, cut)
         return Terms(f0, fv, fp, float(S[0]), T0, Tm.reshape(n, a).T, float(err[0]), Tg, gK)
 
+    def evaluate_many(self, Q: Array, DQ: Array, p: Array) -> tuple[Array, Array]:
+        """Tm (N, n_act, n) and Tg (N, n_act) at N states (rows of Q, DQ), one call."""
+        N, n, a = len(Q), self.n, self.n_act
+        X = np.vstack([np.asarray(Q, dtype=float).T, np.asarray(DQ, dtype=float).T])
+        X = np.vstack([X, np.repeat(np.asarray(p, dtype=float)[:, None], N, axis=1)])
+        V = np.asarray(self.terms_flat.map(N)(X))
+        start = 3 * n + 1 + a
+        Tm = V[start : start + a * n].T.reshape(N, n, a).transpose(0, 2, 1)
+        Tg = V[start + a * n + 1 : start + a * n + 1 + a].T
+        return np.ascontiguousarray(Tm), np.ascontiguousarray(Tg)
+
     def advance(
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float
     ) -> tuple[Array, Array]:
@@ -143,6 +173,17 @@ class GeneratorFunctions:
         x = np.concatenate([q, dq, [u, s], ext, p, [dt]])
         v = self.step_flat(x).full().ravel()
         return v[: self.n], v[self.n :]
+
+    def run_chunk(
+        self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float
+    ) -> tuple[Array, Array]:
+        """``chunk_steps`` steps from (q, dq): states after each step (K, 2n) and the records
+        (K, n + n_act + 2) = [ddq, tau, err, f] at each step's start (:mod:`ej_step`)."""
+        if self.chunk is None:
+            raise RuntimeError("no chunk function")
+        par = np.concatenate([p, [u, s], ext, [dt]])
+        X, R = self.chunk(np.concatenate([q, dq]), par)
+        return np.asarray(X).T, np.asarray(R).T
 
 
 def build_functions(
@@ -152,8 +193,13 @@ def build_functions(
     varrho: float = 1.0,
     arm_weight: float = 0.3,
     codegen: bool = False,
+    notify: Callable[[str], None] | None = None,
 ) -> GeneratorFunctions:
-    """Build ``terms``, ``step`` and ``E`` for one problem (eqs. (16)-(24) of 000)."""
+    """Build ``terms``, ``step``, ``chunk`` and ``E`` for one problem (eqs. (16)-(24) of 000).
+
+    With ``codegen`` the flat functions are compiled to C (cached; ``notify`` is told before
+    a build that is not cached).
+    """
     s = robot.symbols
     n = robot.n
     q, dq = s.q, s.dq
@@ -191,56 +237,43 @@ def build_functions(
         ["q", "dq", "p"],
         ["f0", "fv", "fp", "S", "T0", "Tm", "err", "Tg", "gK"],
     )
-    # One step: Strang splitting of the damping around RK4 of the rest.
-    u, sp, dt = ca.SX.sym("u"), ca.SX.sym("s"), ca.SX.sym("dt")
+    # Stage acceleration and damping rate of the Strang-split RK4 step (ej_step).
+    u, sp = ca.SX.sym("u"), ca.SX.sym("s")
     ext = ca.SX.sym("ext", n)
     accel = ca.Function("acc", [q, dq, u, sp, ext, p], [f0 + u * fv + sp * fp + P @ ext])
     damp = ca.Function("damp", [q], [S])
-    qs, dqs = ca.SX.sym("q", n), ca.SX.sym("dq", n)
-    d1 = dqs * ca.exp(-sp * damp(qs) * dt / 2)
-    k1v = d1
-    k1a = accel(qs, d1, u, sp, ext, p)
-    k2v = d1 + dt / 2 * k1a
-    k2a = accel(qs + dt / 2 * k1v, k2v, u, sp, ext, p)
-    k3v = d1 + dt / 2 * k2a
-    k3a = accel(qs + dt / 2 * k2v, k3v, u, sp, ext, p)
-    k4v = d1 + dt * k3a
-    k4a = accel(qs + dt * k3v, k4v, u, sp, ext, p)
-    q_next = qs + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
-    dq_next = d1 + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
-    dq_next = dq_next * ca.exp(-sp * damp(q_next) * dt / 2)
-    step = ca.Function(
-        "mmplan_ej_step",
-        [qs, dqs, u, sp, ext, p, dt],
-        [q_next, dq_next],
-        ["q", "dq", "u", "s", "ext", "p", "dt"],
-        ["q_next", "dq_next"],
-    )
-    step = step.expand()
     E_fn = ca.Function("mmplan_ej_E", [q, p], [E])
     xt = ca.SX.sym("x", 2 * n + 6)
     outs = terms(xt[:n], xt[n : 2 * n], xt[2 * n :])
     terms_flat = ca.Function("mmplan_ej_terms_flat", [xt], [ca.vertcat(*[ca.vec(o) for o in outs])])
-    xs = ca.SX.sym("x", 3 * n + 9)
-    nxt = step(
-        xs[:n],
-        xs[n : 2 * n],
-        xs[2 * n],
-        xs[2 * n + 1],
-        xs[2 * n + 2 : 3 * n + 2],
-        xs[3 * n + 2 : 3 * n + 8],
-        xs[3 * n + 8],
-    )
-    step_flat = ca.Function("mmplan_ej_step_flat", [xs], [ca.vertcat(*nxt)])
-    compiled = False
+    h, n_act = A.shape[0], len(robot.actuators)
+    parts = StepParts(
+        q, dq, p, E, v1,
+        ca.vertcat(p[4] * de_I, p[5] * e_II),
+        ca.vertcat(p[3] * e_I, ca.SX.zeros(h)),
+        fp, S, P, T0, Tm, err,
+    )  # fmt: skip
     if codegen:
-        built = _compile([terms_flat, step_flat])
+        key_fn = ca.Function("key", [q, dq, p], [f0, fv, fp, S, T0, Tm, err, Tg, gK, P])
+        key = "\n".join([key_fn.serialize(), *(Path(m).read_text() for m in _SOURCES)])
+
+        def make() -> list[ca.Function]:
+            record_c = build_record_step(parts, accel, damp, cse=True)
+            terms_c = ca.Function("mmplan_ej_terms_flat", [xt], ca.cse([terms_flat(xt)]))
+            return [terms_c, step_wrapper(record_c, n), build_chunk(record_c), record_c]
+
+        built = cg.compile_library(make, "ej", CFLAGS, notify, key)
         if built is not None:
-            terms_flat = ca.external("mmplan_ej_terms_flat", built)
-            step_flat = ca.external("mmplan_ej_step_flat", built)
-            compiled = True
+            names = ["terms_flat", "step_flat", "chunk", "record_step"]
+            terms_flat, step_flat, chunk, record = cg.load([f"mmplan_ej_{x}" for x in names], built)
+            return GeneratorFunctions(
+                None, terms, E_fn, n, n_act, True, terms_flat, step_flat, chunk, record=record
+            )
+    step, step_flat = reference_step(accel, damp, n, p)
+    record = build_record_step(parts, accel, damp)
+    chunk = build_chunk(record)
     return GeneratorFunctions(
-        terms, step, E_fn, n, len(robot.actuators), compiled, terms_flat, step_flat
+        step, terms, E_fn, n, n_act, False, terms_flat, step_flat, chunk, record=record
     )
 
 
@@ -263,35 +296,3 @@ def _effort_split(robot: Robot) -> tuple[ca.SX, ca.SX]:
     T0 = ca.solve(NB, s.null_basis.T @ bias)
     Tm = ca.solve(NB, s.null_basis.T @ s.mass_matrix)
     return T0, Tm
-
-
-def _compile(functions: Sequence[ca.Function]) -> str | None:
-    """Generate C for ``functions``, compile it with the system C compiler (cached by source hash).
-
-    Returns the shared-library path, or None when no compiler is available.
-    """
-    compiler = shutil.which("gcc") or shutil.which("cc")
-    if compiler is None:
-        return None
-    gen = ca.CodeGenerator("mmplan_ej.c", {"with_header": False})
-    for f in functions:
-        gen.add(f)
-    source = gen.dump()
-    digest = hashlib.sha1((" ".join(CFLAGS) + source).encode()).hexdigest()[:16]
-    cache = Path(os.environ.get("MMPLAN_CACHE", Path(tempfile.gettempdir()) / "mmplan-codegen"))
-    cache.mkdir(parents=True, exist_ok=True)
-    lib = cache / f"ej_{digest}.so"
-    if not lib.exists():
-        src = cache / f"ej_{digest}.c"
-        src.write_text(source)
-        tmp = cache / f"ej_{digest}.{os.getpid()}.so"
-        result = subprocess.run(
-            [compiler, *CFLAGS, "-shared", "-fPIC", str(src), "-o", str(tmp), "-lm"],
-            capture_output=True,
-            text=True,
-            check=False,
-        )
-        if result.returncode != 0:
-            return None
-        tmp.replace(lib)
-    return str(lib)

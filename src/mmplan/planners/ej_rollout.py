@@ -25,7 +25,8 @@ After ``max_escapes`` attempts, or without an obstacle acting, the run ends as s
 
 Conditioning: cond(E) is computed every ``cond_every`` steps; above ``switch_cond`` the
 caller may switch to a better-conditioned column partition (same optimum, eq. (11) of 000),
-above ``cond_limit`` the run ends as diverged.
+above ``cond_limit`` the run ends as diverged. Speed: stretches without decisions run as one
+compiled call of ``cond_every`` steps each (:mod:`mmplan.planners.ej_fastpath`).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.planners import ej_fastpath
 from mmplan.planners import virtual_control as vc
 from mmplan.planners.ej_decision import decide
 from mmplan.planners.ej_dynamics import GeneratorFunctions
@@ -104,11 +106,13 @@ def rollout(
     p_f: Array,
     opt: RolloutOptions,
     switch: Callable[[Array], GeneratorFunctions | None] | None = None,
+    fast: bool = True,
 ) -> RolloutResult:
     """Run the generator from rest at ``q0`` towards ``p_f`` until reached or stopped.
 
     When cond(E) exceeds ``opt.switch_cond``, ``switch(q)`` may return the generator of a
     better-conditioned column partition (same optimum, eq. (11)); the run continues with it.
+    ``fast=False`` runs every sample in the loop (the reference; same samples to rounding).
 
     Args:
         fns: Generator functions of the problem.
@@ -128,8 +132,18 @@ def rollout(
     escape_left, escape_until, escapes, switches = 0, -1.0, 0, 0
     escape_dir: Array | None = None
     max_cond, infeasible_samples, infeasible_first, s_min = 0.0, 0, None, 1.0
-    for k in range(steps + 1):
+    k, chunked = -1, 0
+    while k < steps:
+        k += 1
         t = k * dt
+        if fast and ej_fastpath.usable(fns, opt, k, steps, escape_dir is None or t >= escape_until):
+            clock = ej_fastpath.StallClock(window, escapes, escape_until)
+            can_switch = switch is not None and switches < opt.max_switches
+            c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, can_switch)
+            if c.m:
+                max_cond, q, dq, u, k = max(max_cond, c.cond), c.q, c.dq, c.u, k + c.m - 1
+                s_min, chunked = min(s_min, c.s_min), chunked + c.m
+                continue
         out = fns.evaluate(q, dq, p)
         f0, fv, S, err = out.f0, out.fv, out.S, out.err
         if not (np.all(np.isfinite(f0)) and np.all(np.isfinite(fv)) and np.isfinite(S)):
@@ -202,6 +216,7 @@ def rollout(
         "escapes_left": escape_left,
         "partition_switches": switches,
         "min_perturbation_scale": s_min,
+        "chunked_samples": chunked,
     }
     return finish(rows, status, message, infeasible_samples, infeasible_first, info, opt)
 

@@ -46,14 +46,9 @@ def rollout_time_scaled(
         fns, pfaffian, winv, q0, p_f, dataclasses.replace(opt, torque_control=False), switch
     )
     p = np.concatenate([p_f, opt.gains])
-    n_s = len(free.t)
-    alpha, beta, g = (np.zeros_like(free.tau) for _ in range(3))
-    for i in range(n_s):
-        out = fns.evaluate(free.q[i], free.dq[i], p)
-        Tm = out.Tm
-        g[i] = out.Tg
-        alpha[i] = free.tau[i] - g[i]
-        beta[i] = Tm @ free.dq[i]
+    Tm, g = fns.evaluate_many(free.q, free.dq, p)  # one call for all samples
+    alpha = free.tau - g
+    beta = np.einsum("kij,kj->ki", Tm, free.dq)
     lo, hi = opt.zone
     sc = time_optimal_scaling(free.t, alpha, beta, g, lo, hi)
     info = dict(free.info)

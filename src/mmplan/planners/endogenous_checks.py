@@ -80,6 +80,10 @@ def check_problem(
             )
         if not b.min < b.max:
             raise InputError(key, f"min {b.min} must be < max {b.max}")
+        earlier = [j for j, o in enumerate(settings.bounds[:i]) if o.coordinate == b.coordinate]
+        if earlier:
+            raise InputError(f"{key}.coordinate", f"duplicate: {b.coordinate!r} is already "
+                             f"bounded by planner.bounds[{earlier[0]}]")
         k = robot.index(b.coordinate)
         if not b.min < start[k] < b.max:
             raise InputError(

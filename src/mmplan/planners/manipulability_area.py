@@ -30,6 +30,7 @@ from typing import Literal
 
 import numpy as np
 from pydantic import Field, model_validator
+from pydantic_core import PydanticCustomError
 
 from mmplan.errors import InputError
 from mmplan.planners import lma_grid, lma_path
@@ -38,6 +39,11 @@ from mmplan.planners.lma_result import assemble, failure
 from mmplan.planners.puma_ik import PumaGeometry
 from mmplan.task import DrawSegment
 from mmplan.trajectory import PlanResult
+
+#: Work bounds: the layer stack holds cells x layers manipulabilities (9 bytes each) and one
+#: layer's IK temporaries (a few hundred bytes a cell).
+MAX_GRID_CELLS = 1_000_000
+MAX_STACK_CELLS = 30_000_000
 
 
 class ManipulabilityAreaSettings(PlannerSettings):
@@ -49,13 +55,14 @@ class ManipulabilityAreaSettings(PlannerSettings):
     resolution: float = Field(default=0.01, gt=0, allow_inf_nan=False, description="cell [m]")
     layers: int = Field(default=31, ge=2, le=1000, description="poses along the task")
     threshold_ratio: float = Field(
-        default=0.5, gt=0, le=1, description="MA threshold / largest w of the whole LMA"
+        default=0.5, gt=0, le=1, allow_inf_nan=False,
+        description="MA threshold / largest w of the whole LMA (ignored when threshold is set)",
     )
     threshold: float | None = Field(
         default=None,
         gt=0,
         allow_inf_nan=False,
-        description="absolute MA threshold [m^3]; overrides ratio",
+        description="absolute MA threshold [m^3]; when set it wins over threshold_ratio",
     )
     heading: float | None = Field(
         default=None,
@@ -88,6 +95,16 @@ class ManipulabilityAreaSettings(PlannerSettings):
                 raise ValueError(
                     f"{key}: expected finite [min, max] with min < max, got [{lo}, {hi}]"
                 )
+        nx, ny = (int(np.floor((hi - lo) / self.resolution + 1e-9)) + 1
+                  for lo, hi in (self.x_range, self.y_range))
+        if nx * ny > MAX_GRID_CELLS or nx * ny * self.layers > MAX_STACK_CELLS:
+            raise PydanticCustomError(
+                "scenario",
+                f"a grid of {nx} x {ny} cells x {self.layers} layers is too large "
+                f"(limits: {MAX_GRID_CELLS:.0e} cells, {MAX_STACK_CELLS:.0e} cells x layers); "
+                "use a coarser resolution, smaller ranges or fewer layers",
+                {"key": "resolution"},
+            )
         return self
 
     def branch(self) -> lma_grid.Branch:
@@ -118,6 +135,13 @@ class ManipulabilityArea(Planner):
                 "goal",
                 "manipulability-area plans a segment: expected "
                 f"goal.segment {{start, end, normal}}, got {type(task).__name__}",
+            )
+        if problem.scene.obstacles:
+            raise InputError(
+                "obstacles",
+                f"{len(problem.scene.obstacles)} given, but the manipulability-area method "
+                "has no obstacle model (paper 004); remove the obstacles or choose another "
+                "method",
             )
         if problem.robot.name != "base-6dof":
             raise InputError(

@@ -2,8 +2,16 @@
 
 Optional extra (``pip install 'mmplan[report]'``, matplotlib); imported only by report code and
 the CLI, never by the core. Entry points: :func:`write_report` (library) and
-:func:`render_report_cli` (``mmplan report DIR``).
+:func:`render_report_cli` (``mmplan report DIR``). Numerical warnings of the plotting stack
+(overflow in axis scaling of extreme data, empty CSV files) are silenced: the report shows the
+data as it is and errors are reported as one line. A plan that fails its independent checks
+is still rendered, with a red banner in the summary and a one-line warning on stderr.
 """
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
 
 from mmplan.errors import MmplanError
 
@@ -19,6 +27,53 @@ except ImportError:  # pragma: no cover - depends on the environment
         "mmplan report needs matplotlib: pip install 'mmplan[report]'"
     ) from None
 
-from mmplan.report.build import render_report_cli, write_report  # noqa: E402
+import numpy as np  # noqa: E402
 
-__all__ = ["MissingExtraError", "render_report_cli", "write_report"]
+from mmplan.report import build as _build  # noqa: E402
+
+
+def write_report(plan_dir: str | Path, max_frames: int = 1000) -> Path:
+    """Write ``plan_dir/report.html`` and ``plan_dir/figures/*.png`` (see
+    :func:`mmplan.report.build.write_report`), without numerical warnings on stderr."""
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        warnings.simplefilter("ignore", UserWarning)
+        return _build.write_report(plan_dir, max_frames)
+
+
+def check_failures(plan_dir: str | Path) -> list[str]:
+    """What ``mmplan check DIR`` would report as failed (empty when it passes or cannot run)."""
+    import mmplan
+    from mmplan.check_summary import summary_disagreements
+
+    try:
+        trajectory, sc = mmplan.read_plan(plan_dir)
+        claimed = mmplan.read_summary(plan_dir)
+        status = claimed.get("status")
+        report = mmplan.check(trajectory, sc.build(),
+                              status=None if status is None else str(status))
+    except MmplanError:
+        return []
+    return report.failures() + summary_disagreements(claimed, report, sc.method)
+
+
+def render_report_cli(plan_dir: str | Path) -> Path:
+    """``mmplan report DIR``: write the report, print where it is; warn (one line on stderr)
+    when the plan fails its independent checks."""
+    import click
+
+    out = write_report(plan_dir)
+    figures = len(list((Path(plan_dir) / "figures").glob("*.png")))
+    click.echo(
+        f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB, {figures} figures in "
+        f"{out.parent / 'figures'})"
+    )
+    failed = check_failures(plan_dir)
+    if failed:
+        more = f" (+{len(failed) - 1} more)" if len(failed) > 1 else ""
+        click.echo(f"warning: this plan FAILS its checks: {failed[0]}{more}; see "
+                   f"`mmplan check {plan_dir}`", err=True)
+    return out
+
+
+__all__ = ["MissingExtraError", "check_failures", "render_report_cli", "write_report"]

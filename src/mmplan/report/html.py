@@ -97,7 +97,21 @@ def summary_table(summary: Mapping[str, Any]) -> str:
             '<table class="summary info"><caption>planner info</caption>'
             f"{_rows_html(info_rows)}</table>"
         )
-    return f'<div class="tables">{tables}</div>'
+    return f'{_check_banner(summary)}<div class="tables">{tables}</div>'
+
+
+def _check_banner(summary: Mapping[str, Any]) -> str:
+    """Red banner when summary.json records failed independent checks (else empty)."""
+    if summary.get("check_passed") is not False:
+        return ""
+    failures = summary.get("check_failures")
+    items = "".join(f"<li>{html.escape(str(f))}</li>" for f in failures or []
+                    ) if isinstance(failures, list) else ""
+    return (
+        '<div class="check-failed" style="background:#c5221f;color:#fff;padding:8px 12px;'
+        'border-radius:6px;margin:0 0 10px"><b>The independent check FAILED</b> '
+        f"(mmplan check): this plan is not valid as it stands.<ul>{items}</ul></div>"
+    )
 
 
 def figure_block(fig: RenderedFigure) -> str:

@@ -225,7 +225,7 @@ class Robot:
         if self.end_effector.manipulability == "pose":
             J_w = dynamics.angular_jacobian(T_ee[:3, :3], q)[:, list(self.arm_indices)]
             J_mu = ca.vertcat(J_a, J_w)
-        mu = ca.sqrt(ca.det(J_mu @ J_mu.T))
+        mu = ca.sqrt(ca.fmax(ca.det(J_mu @ J_mu.T), 0))  # det >= 0 up to rounding: no NaN
         points = [T[s.body][:3, :3] @ ca.DM(s.center) + T[s.body][:3, 3] for s in self.collision]
         P = ca.horzcat(*points) if points else ca.SX(3, 0)
         tau = ca.solve(N.T @ B, N.T @ (M @ ddq + c))

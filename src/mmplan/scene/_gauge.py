@@ -74,8 +74,10 @@ def gauge(u: Array, P: float, Q: float) -> Array:
     safe = np.where(m > 0.0, m, 1.0)
     t = u / safe[:, None]
     with np.errstate(under="ignore"):
-        rho = (t[:, 0] ** P + t[:, 1] ** P) ** (1.0 / P)
-        g = (rho**Q + t[:, 2] ** Q) ** (1.0 / Q)
+        rho = (t[:, 0] ** P + t[:, 1] ** P) ** (1.0 / P)  # in [0, 2^(1/P)]: rescale again
+        m2 = np.maximum(rho, t[:, 2])  # so that a large Q (tiny e1) cannot overflow
+        safe2 = np.where(m2 > 0.0, m2, 1.0)
+        g = m2 * ((rho / safe2) ** Q + (t[:, 2] / safe2) ** Q) ** (1.0 / Q)
     return np.asarray(g * m, dtype=float)
 
 

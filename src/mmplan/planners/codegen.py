@@ -1,0 +1,146 @@
+"""C code generation for CasADi functions, compiled with the system compiler and cached on disk.
+
+:func:`compile_library` generates one C file for several functions with CasADi's
+``CodeGenerator``, builds a shared library with ``gcc`` (or ``cc``) and returns its path;
+:func:`load` turns it into ``casadi.external`` functions. Libraries are cached by the hash of
+their source, the flags and the CasADi version in :func:`cache_dir`, so a problem of the same
+shape compiles once; a concurrent build never exposes half a file (atomic rename).
+Without a compiler, or when compiling fails, the caller keeps the CasADi virtual machine.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+
+
+def cache_dir() -> Path:
+    """Folder of the compiled libraries: ``$MMPLAN_CACHE`` or ``$TMPDIR/mmplan-codegen``."""
+    if "MMPLAN_CACHE" in os.environ:
+        return Path(os.environ["MMPLAN_CACHE"])
+    return Path(tempfile.gettempdir()) / "mmplan-codegen"
+
+
+def compiler() -> str | None:
+    """Path of the C compiler (``$CC``, gcc or cc), None when there is none."""
+    return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
+
+
+def _source(functions: Sequence[ca.Function]) -> str:
+    gen = ca.CodeGenerator("mmplan_gen.c", {"with_header": False})
+    for f in functions:
+        gen.add(f)
+    return str(gen.dump())
+
+
+def _library(source: str, prefix: str, flags: Sequence[str]) -> Path:
+    key = "\n".join([source, *flags, ca.CasadiMeta.version()])
+    return cache_dir() / f"{prefix}_{hashlib.sha256(key.encode()).hexdigest()[:20]}.so"
+
+
+def is_cached(functions: Sequence[ca.Function], prefix: str, flags: Sequence[str]) -> bool:
+    """True when the library of ``functions`` is already built (no compile needed)."""
+    return _library(_source(functions), prefix, flags).exists()
+
+
+def compile_library(
+    functions: Sequence[ca.Function] | Callable[[], Sequence[ca.Function]],
+    prefix: str,
+    flags: Sequence[str] = ("-O2",),
+    notify: Callable[[str], None] | None = None,
+    key: str | None = None,
+) -> str | None:
+    """Compile ``functions`` into one cached shared library; its path, or None on failure.
+
+    Args:
+        functions: CasADi functions (loaded back by name with :func:`load`), or a callable
+            making them (called only when the library must be built; needs ``key``).
+        prefix: File-name prefix in the cache folder.
+        flags: C compiler flags (``-shared -fPIC`` are added).
+        notify: Called with a message before a (slow) build that is not cached.
+        key: Cache key that determines the functions (default: their generated source).
+    """
+    cc = compiler()
+    if cc is None:
+        return None
+    if key is not None:
+        library = _library(key, prefix, flags)
+        if library.exists():
+            return str(library)
+    if callable(functions):
+        if key is None:
+            raise ValueError("a lazily made library needs a key")
+        functions = functions()
+    source = _source(functions)
+    library = _library(key if key is not None else source, prefix, flags)
+    if library.exists():
+        return str(library)
+    if notify is not None:
+        notify(f"compiling {prefix} to C (once; cached in {library.parent})")
+    try:
+        library.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=library.parent) as tmp:
+            c_file, so_file = Path(tmp) / f"{prefix}.c", Path(tmp) / f"{prefix}.so"
+            c_file.write_text(source)
+            subprocess.run(
+                [cc, *flags, "-shared", "-fPIC", str(c_file), "-o", str(so_file), "-lm"],
+                check=True,
+                capture_output=True,
+                timeout=900,
+            )
+            os.replace(so_file, library)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return str(library)
+
+
+def load(names: Sequence[str], library: str) -> list[ca.Function]:
+    """The functions ``names`` of a compiled library as ``casadi.external``."""
+    return [ca.external(name, library) for name in names]
+
+
+class NativeFunction:
+    """A compiled function with one dense input and one dense output, called via ctypes.
+
+    Skips the CasADi Python call (about 10-15 us a call): the input vector is written into a
+    preallocated buffer and the generated C function is called directly.
+    """
+
+    def __init__(self, library: str, name: str) -> None:
+        lib = ctypes.CDLL(library)
+        cint = ctypes.c_longlong if lib.mmplan_gen_casadi_int_size() == 8 else ctypes.c_int
+        sizes = [cint() for _ in range(4)]
+        getattr(lib, f"{name}_work")(*(ctypes.byref(x) for x in sizes))
+        n_arg, n_res, n_iw, n_w = (max(1, int(x.value)) for x in sizes)
+        sparsity = getattr(lib, f"{name}_sparsity_in")
+        sparsity.restype = ctypes.POINTER(cint)
+        n_in = int(sparsity(0)[0])
+        sparsity = getattr(lib, f"{name}_sparsity_out")
+        sparsity.restype = ctypes.POINTER(cint)
+        n_out = int(sparsity(0)[0])
+        dbl = ctypes.POINTER(ctypes.c_double)
+        self.x, self.y = np.zeros(n_in), np.zeros(n_out)
+        self._w, self._iw = np.zeros(n_w), (cint * n_iw)()
+        self._arg, self._res = (dbl * n_arg)(), (dbl * n_res)()
+        self._arg[0], self._res[0] = self.x.ctypes.data_as(dbl), self.y.ctypes.data_as(dbl)
+        self._w_ptr = self._w.ctypes.data_as(dbl)
+        getattr(lib, f"{name}_incref")()
+        self._mem = int(getattr(lib, f"{name}_checkout")())
+        self._fn = getattr(lib, name)
+        self._lib = lib
+
+    def __call__(self) -> NDArray[np.float64]:
+        """Evaluate at the current ``self.x``; returns ``self.y`` (overwritten by the next call)."""
+        if self._fn(self._arg, self._res, self._iw, self._w_ptr, self._mem):
+            raise RuntimeError("compiled function failed")
+        return self.y
