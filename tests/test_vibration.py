@@ -211,3 +211,17 @@ def test_with_vibration_adds_artifacts_and_scalars() -> None:
     assert "vibration_freq_hz" in out.artifacts
     # A 0.2 m/s^2 step in x from rest: deflection acceleration starts at -0.2 (the step).
     assert out.info["vibration_peak"] == pytest.approx(0.2, rel=1e-9)
+
+
+def test_extended_jacobian_plans_carry_the_vibration_study() -> None:
+    """Every extended-Jacobian plan reports 003's vibration measures and spectrum."""
+    from mmplan.planners import get_planner
+    from mmplan.scenario import load_scenario
+
+    scenario = load_scenario("youbot4r-reach-smooth")
+    result = get_planner(scenario.method)().plan(scenario.build())
+    assert result.info["vibration_rms"] > 0
+    assert result.info["vibration_rms"] < result.info["tip_acceleration_rms"]
+    assert (
+        result.artifacts["vibration_freq_hz"].shape == result.artifacts["vibration_amplitude"].shape
+    )

@@ -107,8 +107,9 @@ def check_gravity(robot: Robot, q0: Array) -> None:
     bad = np.flatnonzero((tau < lo - 1e-9) | (tau > hi + 1e-9))
     if bad.size:
         i = int(bad[0])
+        side = "min" if tau[i] < lo[i] else "max"
         raise InputError(
-            f"limits.torque[{i}]",
+            f"limits.torque.{side}[{i}]",
             f"{robot.actuators[i]} needs {tau[i]:.3f} N m to hold the start at rest, "
             f"outside [{lo[i]}, {hi[i]}]: infeasible torque limits",
         )
