@@ -28,7 +28,6 @@ X_d,y(t) + o_y, heading) with the offset o and heading from the settings; the ex
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Literal
 
@@ -42,8 +41,8 @@ from mmplan.planners.base import Planner, Problem, Progress, register
 from mmplan.planners.pseudoinverse import require_path
 from mmplan.planners.tracking_geometry import horizontal_distance_sym
 from mmplan.planners.tracking_potentials import min_clearance_sym, sphere_distances
-from mmplan.planners.tracking_result import finish
-from mmplan.planners.tracking_rollout import TrackingSettings, compile_step, rollout
+from mmplan.planners.tracking_result import track
+from mmplan.planners.tracking_rollout import TrackingSettings, compile_step
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
@@ -56,7 +55,7 @@ class ImpedanceSettings(TrackingSettings):
     """Settings of the virtual-impedance tracker; defaults are SPEC section 5's example."""
 
     method: Literal["impedance"] = "impedance"
-    dt: float = Field(0.001, gt=0, allow_inf_nan=False, description="integration step [s]")
+    dt: float = Field(default=0.001, gt=0, allow_inf_nan=False, description="integration step [s]")
     gain: float = Field(5.0, ge=0, allow_inf_nan=False, description="W_t = gain I [1/s]")
     platform_heading: float = Field(
         np.pi / 4, allow_inf_nan=False, description="theta of the platform pose task [rad]"
@@ -203,32 +202,20 @@ class ImpedancePlanner(Planner):
             )
         task = require_path(problem)
         model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings)
-        t_end = min(task.duration, settings.t_max)
-        steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
         state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
-        run = rollout(
+        return track(
+            problem,
+            settings,
+            self.method,
             model.step,
             state0,
             lambda t: model.reference(task, t),
-            problem.robot,
-            settings.dt,
-            steps,
-            settings.stop_rules(),
             model.smallest_singular_value,
             progress,
-        )
-        info = _platform_distances(model, task, run.t, run.q) if problem.scene.obstacles else {}
-        return finish(
-            run,
-            problem.robot,
-            problem.scene,
-            task,
-            self.method,
-            settings.dt,
-            settings.settle_time,
-            task.duration > settings.t_max,
-            time.perf_counter() - clock,
-            info,
+            clock,
+            lambda run: (
+                _platform_distances(model, task, run.t, run.q) if problem.scene.obstacles else {}
+            ),
         )
 
 

@@ -25,7 +25,6 @@ the paper does not say which integrator it used.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Sequence
 from typing import Literal
@@ -38,8 +37,8 @@ from pydantic import Field, model_validator
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, Problem, Progress, register
 from mmplan.planners.tracking_potentials import joint_limit_potential, obstacle_potential
-from mmplan.planners.tracking_result import finish
-from mmplan.planners.tracking_rollout import TrackingSettings, compile_step, rollout
+from mmplan.planners.tracking_result import track
+from mmplan.planners.tracking_rollout import TrackingSettings, compile_step
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
@@ -52,7 +51,6 @@ class PseudoinverseSettings(TrackingSettings):
     """Settings of the weighted-pseudoinverse tracker; defaults are SPEC section 4's example."""
 
     method: Literal["pseudoinverse"] = "pseudoinverse"
-    dt: float = Field(0.01, gt=0, allow_inf_nan=False, description="integration step [s]")
     gain: float = Field(
         2.0, ge=0, allow_inf_nan=False, description="drift correction K = gain I [1/s]"
     )
@@ -216,33 +214,19 @@ class PseudoinversePlanner(Planner):
             )
         task = require_path(problem)
         model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings)
-        t_end = min(task.duration, settings.t_max)
-        steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
 
         def reference(t: float) -> Array:
             return np.concatenate([task.position(t), task.velocity(t)])
 
-        run = rollout(
+        return track(
+            problem,
+            settings,
+            self.method,
             model.step,
             np.asarray(problem.start, dtype=float),
             reference,
-            problem.robot,
-            settings.dt,
-            steps,
-            settings.stop_rules(),
             model.smallest_singular_value,
             progress,
-        )
-        info = {"weights": [float(v) for v in model.w]}
-        return finish(
-            run,
-            problem.robot,
-            problem.scene,
-            task,
-            self.method,
-            settings.dt,
-            settings.settle_time,
-            task.duration > settings.t_max,
-            time.perf_counter() - clock,
-            info,
+            clock,
+            lambda run: {"weights": [float(v) for v in model.w]},
         )

@@ -6,13 +6,18 @@ against the scene's (original) obstacles at the robot's collision spheres.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+import time
+from collections.abc import Callable, Mapping
 from typing import Any
 
+import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from mmplan.planners.tracking_rollout import Rollout
+from mmplan.errors import ModelError
+from mmplan.planners.base import Problem, Progress
+from mmplan.planners.tracking_rollout import Rollout, TrackingSettings, rollout
 from mmplan.robot.robot import Robot
 from mmplan.scene.scene import Scene
 from mmplan.task import TrackPath, completion_time
@@ -102,3 +107,51 @@ def finish(
     if clearance is not None:
         history["clearance_m"] = clearance
     return PlanResult(status, trajectory, planner, message, compute_time_s, full_info, history)
+
+
+def track(
+    problem: Problem,
+    settings: TrackingSettings,
+    planner: str,
+    step: ca.Function,
+    state0: Array,
+    reference: Callable[[float], Array],
+    exact_sigma: Callable[[Array], float],
+    progress: Progress,
+    clock: float,
+    info: Callable[[Rollout], Mapping[str, Any]] = lambda run: {},
+) -> PlanResult:
+    """Roll a compiled tracking step along ``problem.task`` and finish the result.
+
+    Shared by the trackers of paper 001: the horizon is min(path duration, t_max) at
+    ``settings.dt``; ``info(run)`` adds method-specific numbers; ``clock`` is the
+    ``time.perf_counter()`` at the start of planning (compute time).
+    """
+    task = problem.task
+    if not isinstance(task, TrackPath):  # planners call require_path first
+        raise ModelError(f"track: expected a TrackPath task, got {type(task).__name__}")
+    t_end = min(task.duration, settings.t_max)
+    steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
+    run = rollout(
+        step,
+        state0,
+        reference,
+        problem.robot,
+        settings.dt,
+        steps,
+        settings.stop_rules(),
+        exact_sigma,
+        progress,
+    )
+    return finish(
+        run,
+        problem.robot,
+        problem.scene,
+        task,
+        planner,
+        settings.dt,
+        settings.settle_time,
+        task.duration > settings.t_max,
+        time.perf_counter() - clock,
+        info(run),
+    )

@@ -44,6 +44,8 @@ Array = NDArray[np.float64]
 class TrackingSettings(PlannerSettings):
     """Settings shared by the path trackers of paper 001 (step and stop rules)."""
 
+    dt: float = Field(default=0.01, gt=0, allow_inf_nan=False, description="integration step [s]")
+
     min_singular_value: float = Field(
         default=0.02,
         gt=0,
