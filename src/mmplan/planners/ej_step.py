@@ -52,6 +52,31 @@ class StepParts:
     err: ca.SX
 
 
+def _rk4_strang(
+    accel: ca.Function,
+    damp: ca.Function,
+    q: ca.SX,
+    d1: ca.SX,
+    k1a: ca.SX,
+    u: ca.SX,
+    s: ca.SX,
+    ext: ca.SX,
+    p: ca.SX,
+    dt: ca.SX,
+) -> tuple[ca.SX, ca.SX]:
+    """RK4 stages 2-4 from the damped velocity d1 and the first-stage acceleration k1a, then
+    the closing half of the Strang splitting (dq *= exp(-s S(q+) dt / 2); SPEC "Stiffness")."""
+    k2v = d1 + dt / 2 * k1a
+    k2a = accel(q + dt / 2 * d1, k2v, u, s, ext, p)
+    k3v = d1 + dt / 2 * k2a
+    k3a = accel(q + dt / 2 * k2v, k3v, u, s, ext, p)
+    k4v = d1 + dt * k3a
+    k4a = accel(q + dt * k3v, k4v, u, s, ext, p)
+    q_next = q + dt / 6 * (d1 + 2 * k2v + 2 * k3v + k4v)
+    dq_next = d1 + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
+    return q_next, dq_next * ca.exp(-s * damp(q_next) * dt / 2)
+
+
 def build_record_step(
     parts: StepParts, accel: ca.Function, damp: ca.Function, cse: bool = False
 ) -> ca.Function:
@@ -78,17 +103,9 @@ def build_record_step(
     flag = ca.sum1(f0) + ca.sum1(fv) + parts.S
     c = ca.exp(-s * parts.S * dt / 2)
     d1 = c * dq
-    k1v = d1
+    # first stage from the sample's own solve (v1 quadratic, v2's velocity part linear in dq)
     k1a = c * c * f0 + u * (c * fv_dq + fv_e) + s * parts.fp + parts.P @ ext
-    k2v = d1 + dt / 2 * k1a
-    k2a = accel(q + dt / 2 * k1v, k2v, u, s, ext, p)
-    k3v = d1 + dt / 2 * k2a
-    k3a = accel(q + dt / 2 * k2v, k3v, u, s, ext, p)
-    k4v = d1 + dt * k3a
-    k4a = accel(q + dt * k3v, k4v, u, s, ext, p)
-    q_next = q + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
-    dq_next = d1 + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
-    dq_next = dq_next * ca.exp(-s * damp(q_next) * dt / 2)
+    q_next, dq_next = _rk4_strang(accel, damp, q, d1, k1a, u, s, ext, p, dt)
     outs = [ca.vertcat(q_next, dq_next), ca.vertcat(ddq, tau, parts.err, flag)]
     if cse:
         outs = ca.cse(outs)
@@ -116,17 +133,8 @@ def reference_step(
     ext = ca.SX.sym("ext", n)
     qs, dqs = ca.SX.sym("q", n), ca.SX.sym("dq", n)
     d1 = dqs * ca.exp(-sp * damp(qs) * dt / 2)
-    k1v = d1
     k1a = accel(qs, d1, u, sp, ext, p)
-    k2v = d1 + dt / 2 * k1a
-    k2a = accel(qs + dt / 2 * k1v, k2v, u, sp, ext, p)
-    k3v = d1 + dt / 2 * k2a
-    k3a = accel(qs + dt / 2 * k2v, k3v, u, sp, ext, p)
-    k4v = d1 + dt * k3a
-    k4a = accel(qs + dt * k3v, k4v, u, sp, ext, p)
-    q_next = qs + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
-    dq_next = d1 + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
-    dq_next = dq_next * ca.exp(-sp * damp(q_next) * dt / 2)
+    q_next, dq_next = _rk4_strang(accel, damp, qs, d1, k1a, u, sp, ext, p, dt)
     step = ca.Function(
         "mmplan_ej_step",
         [qs, dqs, u, sp, ext, p, dt],
