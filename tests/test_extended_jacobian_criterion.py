@@ -2,18 +2,27 @@
 
 Covers H, g (eq. (11) of 000), de_I/dq, v1 (third derivatives of k), the generator's error
 dynamics (eq. (16)), the wheel-metric projector, the obstacle push and the torque split
-tau = T0 + Tm ddq, and that g = 0 at a constrained optimum does not depend on the partition.
+tau = T0 + Tm ddq, and that g = 0 at a constrained optimum does not depend on the partition;
+the cheaper structured forms (:mod:`ej_structure`) against the straightforward reference build.
 """
 
 from __future__ import annotations
+
+import itertools
 
 import casadi as ca
 import numpy as np
 import pytest
 
+from mmplan.errors import InputError
 from mmplan.planners.ej_criterion import Partition, build_criterion, choose_partition
 from mmplan.planners.ej_dynamics import ObstacleTerm, build_functions, wheel_metric_inverse
-from mmplan.robot.library import get_robot
+from mmplan.planners.ej_structure import (
+    reduced_manipulability,
+    rigid_coordinates,
+    structured_solve,
+)
+from mmplan.robot.library import get_robot, robot_names
 from mmplan.robot.robot import Robot
 
 Q0_3R = np.array([0.0, -0.5, np.pi / 2, 0.0, 0.0, 0.0, -0.17, 0.35])
@@ -34,6 +43,11 @@ class Ellipsoid:
         d = (p - self.c) / self.a
         F = ca.sumsqr(d)
         return ca.norm_2(p - self.c) * (1 - F ** (-0.5))
+
+    def radial_distance(self, points: np.ndarray) -> np.ndarray:
+        r = np.asarray(points, dtype=float) - self.c
+        F = np.sum((r / self.a) ** 2, axis=-1)
+        return np.asarray(np.linalg.norm(r, axis=-1) * (1 - F ** (-0.5)))
 
 
 @pytest.fixture(scope="module")
@@ -203,3 +217,111 @@ def test_repartition_finds_a_better_conditioned_partition(robot: Robot) -> None:
     assert np.linalg.cond(Jc[:, list(better.R)]) < 1e3
     assert sorted(better.R + better.F) == list(range(8))
     assert repartition(robot, Q0_3R, better) is None  # already the best
+
+
+# --------------------------------------------------------------------------- structured forms
+def _states(robot: Robot, rng: np.random.Generator, count: int) -> list[np.ndarray]:
+    """Seeded random configurations, arm joints inside the central 60 % of their range."""
+    lo, hi = robot.limits.joint_min, robot.limits.joint_max
+    out = []
+    for _ in range(count):
+        q = rng.uniform(-2.0, 2.0, robot.n)
+        q[list(robot.arm_indices)] = lo + (hi - lo) * rng.uniform(0.2, 0.8, len(lo))
+        out.append(q)
+    return out
+
+
+def _rel(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
+
+
+def _partition(robot: Robot, q: np.ndarray) -> Partition:
+    """The planner's rule, or the best-conditioned Jc_R where it has none (omni bases)."""
+    try:
+        return choose_partition(robot, q)
+    except InputError:
+        Jc = np.vstack([robot.jacobian(q), robot.pfaffian(q)])
+        R = min(
+            itertools.combinations(range(robot.n), Jc.shape[0]),
+            key=lambda c: np.linalg.cond(Jc[:, list(c)]),
+        )
+        return Partition(R, tuple(i for i in range(robot.n) if i not in R))
+
+
+@pytest.mark.parametrize("name", robot_names())
+def test_structured_criterion_equals_the_reference(name: str) -> None:
+    """H, g, e_I, E = [de_I/dq; A] and v1 of the structured build equal the straightforward
+    one (robot's mu, symbolic (m+h) solve) at seeded random states, for every robot.
+
+    Tolerance 1e-9 relative: the reference's sqrt(det(J J^T)) loses digits where mu is
+    small (most states agree to 1e-14)."""
+    robot = get_robot(name)
+    rng = np.random.default_rng(11)
+    partition = _partition(robot, _states(robot, rng, 1)[0])
+    fast = build_criterion(robot, partition)
+    ref = build_criterion(robot, partition, structured=False)
+    outs = [lambda c: c.H, lambda c: c.g, lambda c: c.e_I, lambda c: c.E, lambda c: c.v1]
+    f_fast = ca.Function("f", [fast.q, fast.dq, fast.p_f], [o(fast) for o in outs])
+    f_ref = ca.Function("f", [ref.q, ref.dq, ref.p_f], [o(ref) for o in outs])
+    # The structured form is really used (and smaller) on every built-in robot.
+    g_ops = [ca.Function("g", [c.q], [c.g]).n_instructions() for c in (fast, ref)]
+    assert g_ops[0] < g_ops[1]
+    for q in _states(robot, rng, 4):
+        dq, p_f = rng.normal(size=robot.n), rng.normal(size=3)
+        for a, b in zip(f_fast(q, dq, p_f), f_ref(q, dq, p_f), strict=True):
+            assert _rel(np.asarray(a), np.asarray(b)) < 1e-9
+
+
+@pytest.mark.parametrize("name", ["youbot-3r", "youbot-4r"])
+def test_structured_generator_terms_equal_the_reference(name: str) -> None:
+    """f0 = -E^-1 v1 and fv = -E^-1 v2 (eq. (16)) agree with the reference build."""
+    robot = get_robot(name)
+    rng = np.random.default_rng(12)
+    partition = choose_partition(robot, _states(robot, rng, 1)[0])
+    fns = [
+        build_functions(robot, build_criterion(robot, partition, structured=flag), [])
+        for flag in (True, False)
+    ]
+    assert fns[0].record is not None and fns[1].record is not None
+    assert 2 * fns[0].record.n_instructions() < fns[1].record.n_instructions()
+    for q in _states(robot, rng, 4):
+        dq = rng.normal(size=robot.n)
+        p = np.concatenate([rng.normal(size=3), GAINS])
+        (f0, fv), (g0, gv) = ([np.asarray(x) for x in f.terms(q, dq, p)[:2]] for f in fns)
+        assert _rel(f0, g0) < 1e-10 and _rel(fv, gv) < 1e-10
+
+
+def test_rigid_coordinates_and_fallback(robot: Robot) -> None:
+    """mu ignores the planar pose and the arm's base joint; a partition with a platform
+    coordinate in F keeps the reference transversality (same expression)."""
+    assert rigid_coordinates(robot) == (0, 1, 2, 5)
+    s = robot.symbols
+    mu = ca.Function("mu", [s.q], [reduced_manipulability(robot), s.manipulability])
+    rng = np.random.default_rng(13)
+    for q in _states(robot, rng, 3):
+        a, b = (float(v) for v in mu(q))
+        assert a == pytest.approx(b, rel=1e-12)
+        moved = q + np.where(np.isin(np.arange(8), [0, 1, 2, 5]), rng.normal(size=8), 0.0)
+        assert float(mu(moved)[1]) == pytest.approx(b, rel=1e-10)
+    other = Partition((0, 1, 3, 4, 5, 6), (2, 7))  # theta in F: the solve, reduced mu
+    fast, ref = (build_criterion(robot, other, structured=flag) for flag in (True, False))
+    g = ca.Function("g", [s.q], [fast.g, ref.g])
+    for q in _states(robot, rng, 3):
+        g_fast, g_ref = (np.asarray(v) for v in g(q))
+        assert _rel(g_fast, g_ref) < 1e-10
+    ops = [ca.Function("g", [s.q], [c.g]).n_instructions() for c in (fast, ref)]
+    assert ops[0] < ops[1]
+
+
+@pytest.mark.parametrize("name", ["youbot-3r", "youbot-4r", "diffdrive-3dof", "omni-3dof"])
+def test_structured_solve_equals_the_dense_solve(name: str) -> None:
+    """E^-1 B through ker A equals CasADi's (n) solve of E = [De; A] at seeded states."""
+    robot = get_robot(name)
+    rng = np.random.default_rng(14)
+    crit = build_criterion(robot, _partition(robot, _states(robot, rng, 1)[0]))
+    B = ca.SX.sym("B", robot.n, 3)
+    E = ca.substitute(crit.E, crit.p_f, ca.DM.zeros(3))
+    solves = ca.Function("x", [crit.q, B], [structured_solve(robot, E, B), ca.solve(E, B)])
+    for q in _states(robot, rng, 4):
+        a, b = (np.asarray(v) for v in solves(q, rng.normal(size=(robot.n, 3))))
+        assert _rel(a, b) < 1e-10

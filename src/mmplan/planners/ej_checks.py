@@ -10,7 +10,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -53,17 +52,33 @@ def check_goal(robot: Robot, p_f: Array, samples: int = 4096) -> None:
     """The goal height must lie within the arm's vertical reach (sampled over the joint limits)."""
     if p_f.shape != (3,) or not np.all(np.isfinite(p_f)):
         raise InputError("goal.position", f"expected 3 finite numbers, got {p_f.tolist()}")
+    z_lo, z_hi = _vertical_reach(robot, samples)
+    if not z_lo <= p_f[2] <= z_hi:
+        raise InputError(
+            "goal.position[2]",
+            f"height {p_f[2]:.3f} m is outside the arm's reach [{z_lo:.3f}, {z_hi:.3f}] m",
+        )
+
+
+_REACH: dict[int, tuple[Robot, int, float, float]] = {}
+
+
+def _vertical_reach(robot: Robot, samples: int) -> tuple[float, float]:
+    """Sampled [min, max] end-effector height over the joint limits, +-0.02 m (cached per
+    robot object: it does not change between plans)."""
+    hit = _REACH.get(id(robot))
+    if hit is not None and hit[0] is robot and hit[1] == samples:
+        return hit[2], hit[3]
     rng = np.random.default_rng(0)
     lo, hi = robot.limits.joint_min, robot.limits.joint_max
     Q = np.zeros((samples, robot.n))
     Q[:, list(robot.arm_indices)] = lo + (hi - lo) * rng.random((samples, len(lo)))
     Z = np.asarray(robot.functions["ee_position"].map(samples)(Q.T), dtype=float)[2]
     z_lo, z_hi = float(Z.min()) - 0.02, float(Z.max()) + 0.02
-    if not z_lo <= p_f[2] <= z_hi:
-        raise InputError(
-            "goal.position[2]",
-            f"height {p_f[2]:.3f} m is outside the arm's reach [{z_lo:.3f}, {z_hi:.3f}] m",
-        )
+    if len(_REACH) > 16:
+        _REACH.clear()
+    _REACH[id(robot)] = (robot, samples, z_lo, z_hi)
+    return z_lo, z_hi
 
 
 def check_start_clearance(
@@ -78,9 +93,7 @@ def check_start_clearance(
         j = int(np.unravel_index(int(np.argmin(exact)), exact.shape)[1])
         raise InputError("start", f"in collision with obstacle {j} (distance {exact.min():.3f} m)")
     for j, ob in enumerate(obstacles):
-        p = ca.SX.sym("p", 3)
-        C = ca.Function("C", [p], [ob.model.radial_distance_sym(p)]).map(len(points))
-        c_min = float(np.min(np.asarray(C(points.T), dtype=float)))
+        c_min = float(np.min(ob.model.radial_distance(points)))
         if c_min <= 0.0:
             raise InputError(
                 "start",
@@ -126,10 +139,9 @@ def fit_influence(obstacles: Sequence[ObstacleTerm], p_f: Array) -> list[Obstacl
     Raises:
         InputError: the goal lies inside an enlarged obstacle (unreachable without contact).
     """
-    p = ca.SX.sym("p", 3)
     out = []
     for j, ob in enumerate(obstacles):
-        c_goal = float(ca.Function("C", [p], [ob.model.radial_distance_sym(p)])(p_f))
+        c_goal = float(ob.model.radial_distance(p_f[None, :])[0])
         if c_goal <= 0.0:
             raise InputError(
                 "goal.position",

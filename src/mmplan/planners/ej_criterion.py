@@ -9,7 +9,9 @@ and a goal parameter ``p_f`` (3,); derivatives come from CasADi AD, never by han
   because mu does not depend on it and E is singular at the goal).
 * Transversality, eq. (11) of 000 / (9) of 003, with the stacked Jacobian Jc = [J; A]
   (m+h, n) split into columns R (m+h) and F (n-m-h):
-  :math:`g(q) = H_F - (Jc_R^{-1} Jc_F)^T H_R`, built with a symbolic solve.
+  :math:`g(q) = H_F - (Jc_R^{-1} Jc_F)^T H_R`; by default in the cheaper equal form of
+  :mod:`mmplan.planners.ej_structure` (3-4x fewer operations in the compiled step), the
+  symbolic (m+h) solve with the robot's mu being the reference (``structured=False``).
 * Errors e_I = [k(q) - p_f; g(q)] (n-h,), e_II = A(q) dq (h,).
 * E = [de_I/dq; A] (n, n), v1 = [d/dt(de_I/dq) dq; d/dt(A) dq],
   v2 = [Lambda_V de_I/dq dq + Lambda_P e_I; Lambda_II A dq], so that eq. (16) / (12) reads
@@ -33,6 +35,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.errors import InputError
+from mmplan.planners.ej_structure import (
+    reduced_manipulability,
+    structured_transversality,
+)
 from mmplan.robot.robot import Robot
 
 Array = NDArray[np.float64]
@@ -137,20 +143,30 @@ def joint_limit_penalty(q_arm: ca.SX, q_min: Array, q_max: Array, weight: float)
     return ca.sum1(ca.vertcat(*terms))
 
 
-def build_criterion(robot: Robot, partition: Partition, weight: float = 0.01) -> Criterion:
-    """Build H, g, e_I, E, v1 for ``robot`` (eqs. (9)-(16) of 000)."""
+def build_criterion(
+    robot: Robot, partition: Partition, weight: float = 0.01, structured: bool = True
+) -> Criterion:
+    """Build H, g, e_I, E, v1 for ``robot`` (eqs. (9)-(16) of 000).
+
+    With ``structured`` (default) mu and g take the cheaper equal forms of
+    :mod:`mmplan.planners.ej_structure` (same values up to rounding, checked at two seeded
+    states; 3-10x fewer operations in g, E and v1); ``structured=False`` is the
+    straightforward reference: mu from the robot and g with the symbolic (m+h) solve.
+    """
     s = robot.symbols
     q, dq = s.q, s.dq
     p_f = ca.SX.sym("p_f", 3)
     q_arm = q[list(robot.arm_indices)]
-    H = -s.manipulability + joint_limit_penalty(
-        q_arm, robot.limits.joint_min, robot.limits.joint_max, weight
-    )
-    Hq = ca.gradient(H, q)
-    Jc = ca.vertcat(s.jacobian, s.pfaffian)
-    R, F = list(partition.R), list(partition.F)
-    X = ca.solve(Jc[:, R], Jc[:, F])  # Jc_R^-1 Jc_F, (m+h, n-m-h)
-    g = Hq[F] - X.T @ Hq[R]
+    penalty = joint_limit_penalty(q_arm, robot.limits.joint_min, robot.limits.joint_max, weight)
+    H = -s.manipulability + penalty
+    g = reference_transversality(robot, partition, H)
+    if structured:
+        H_red = -reduced_manipulability(robot) + penalty
+        g_red = structured_transversality(robot, partition.R, partition.F, ca.gradient(H_red, q))
+        if g_red is None:  # R without every platform column: the solve, with the cheaper mu
+            g_red = reference_transversality(robot, partition, H_red)
+        if _agree(q, g, g_red, robot):
+            H, g = H_red, ca.cse(g_red)
     e_I = ca.vertcat(s.ee_position - p_f, g)
     De = ca.jacobian(e_I, q)
     A = s.pfaffian
@@ -159,6 +175,31 @@ def build_criterion(robot: Robot, partition: Partition, weight: float = 0.01) ->
     e_II = A @ dq
     v1 = ca.vertcat(ca.jacobian(de_I, q) @ dq, ca.jacobian(e_II, q) @ dq)
     return Criterion(q, dq, p_f, H, g, e_I, De, E, v1, de_I, e_II)
+
+
+def reference_transversality(robot: Robot, partition: Partition, H: ca.SX) -> ca.SX:
+    """g = H_F - (Jc_R^-1 Jc_F)^T H_R (eq. (11) of 000) with a symbolic solve (reference)."""
+    s = robot.symbols
+    Hq = ca.gradient(H, s.q)
+    Jc = ca.vertcat(s.jacobian, s.pfaffian)
+    R, F = list(partition.R), list(partition.F)
+    X = ca.solve(Jc[:, R], Jc[:, F])  # Jc_R^-1 Jc_F, (m+h, n-m-h)
+    return Hq[F] - X.T @ Hq[R]
+
+
+def _agree(q: ca.SX, g: ca.SX, g_red: ca.SX, robot: Robot, states: int = 2) -> bool:
+    """Guard: the structured g equals the reference at a few seeded random states."""
+    fn = ca.Function("g_check", [q], [g, g_red])
+    rng = np.random.default_rng(0)
+    lo = np.where(np.isfinite(robot.limits.joint_min), robot.limits.joint_min, -np.pi)
+    hi = np.where(np.isfinite(robot.limits.joint_max), robot.limits.joint_max, np.pi)
+    for _ in range(states):
+        x = rng.uniform(-1.0, 1.0, robot.n)
+        x[list(robot.arm_indices)] = lo + (hi - lo) * rng.uniform(0.2, 0.8, len(lo))
+        ref, red = (np.asarray(v, dtype=float).ravel() for v in fn(x))
+        if not np.allclose(red, ref, rtol=1e-8, atol=1e-8 * max(1.0, float(np.abs(ref).max()))):
+            return False
+    return True
 
 
 def generator_terms(crit: Criterion, gains: Sequence[float], h: int) -> tuple[ca.SX, ca.SX]:

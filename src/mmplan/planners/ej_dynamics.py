@@ -22,31 +22,37 @@ One symbolic model, two CasADi functions (optionally code-generated to C and com
 ``step(q, dq, u, s, ext, p, dt) -> (q+, dq+)`` (:mod:`mmplan.planners.ej_step`): one step of
 dt. The damping -s S(q) dq is integrated exactly, dq *= exp(-s S dt / 2), before and after
 one RK4 step of
-ddq = f0 + u fv + s fp + P ext (Strang splitting, SPEC "Stiffness"); u, s, ext are held.
+ddq = f0 + u fv + s fp + P ext (Strang splitting, SPEC "Stiffness"), then dq is projected into
+ker A(q+) (constraint stabilization, :mod:`ej_step`); u, s, ext are held.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.planners import codegen as cg
-from mmplan.planners import ej_step
+from mmplan.planners import ej_obstacles, ej_step
 from mmplan.planners.ej_criterion import Criterion
+from mmplan.planners.ej_obstacles import ObstacleTerm, obstacle_functions, obstacle_penalty
 from mmplan.planners.ej_step import (
     CHUNK,
     StepParts,
     build_chunk,
+    build_chunk_flat,
     build_record_step,
+    build_record_step_culled,
     reference_step,
     step_wrapper,
 )
+from mmplan.planners.ej_structure import structured_solve
 from mmplan.robot.robot import Robot
 
 Array = NDArray[np.float64]
@@ -56,23 +62,7 @@ Array = NDArray[np.float64]
 CFLAGS = ("-O2", "-march=native")
 
 #: Source files whose code shapes the compiled library (part of its cache key).
-_SOURCES = (__file__, ej_step.__file__)
-
-
-class SmoothObstacle(Protocol):
-    """What the generator needs of an obstacle model (a scene ``Superellipsoid``)."""
-
-    def radial_distance_sym(self, p: ca.SX) -> ca.SX:
-        """Radial distance C from the point p (3,) to the surface, SX scalar."""
-        ...
-
-
-@dataclass(frozen=True)
-class ObstacleTerm:
-    """One obstacle for the perturbation: its smooth (already enlarged) model and delta [m]."""
-
-    model: SmoothObstacle
-    influence: float
+_SOURCES = (__file__, ej_step.__file__, ej_obstacles.__file__)
 
 
 def wheel_metric_inverse(robot: Robot) -> np.ndarray:
@@ -83,28 +73,6 @@ def wheel_metric_inverse(robot: Robot) -> np.ndarray:
         for i in range(3, robot.n_platform):
             diag[i] = 1.0 / radius**2
     return diag
-
-
-def obstacle_penalty(
-    points: ca.SX, obstacles: Sequence[ObstacleTerm], c_floor: float = 1e-3
-) -> ca.SX:
-    """K = sum_{o, points} kappa_o(C) with kappa_o = ((delta - C)/C)^2 for C < delta, else 0.
-
-    Args:
-        points: Collision points (3, P).
-        obstacles: Obstacles with their neighbourhood delta.
-        c_floor: C is clamped below at this value [m] (the barrier is then ~(delta/c_floor)^2).
-    """
-    total = ca.SX(0)
-    point = ca.SX.sym("point", 3)
-    for ob in obstacles:
-        # One expression per obstacle, mapped over the points (same operations, ~40x faster
-        # to build than one Python-level expression per point).
-        C = ca.fmax(ob.model.radial_distance_sym(point), c_floor)
-        kappa = ca.if_else(ob.influence > C, ((ob.influence - C) / C) ** 2, 0.0)
-        per_point = ca.Function("kappa", [point], [kappa]).map(points.shape[1])
-        total += ca.sum2(per_point(points))
-    return total
 
 
 @dataclass(frozen=True)
@@ -127,6 +95,7 @@ class GeneratorFunctions:
     """The generator functions and their sizes (see the module docstring).
 
     ``terms`` and ``step`` are the SX reference functions (``step`` only when not compiled);
+    ``effort`` maps x = [q; dq] to [Tm dq; Tg] (compiled with the others);
     ``terms_flat`` (x = [q; dq; p]) and ``step_flat`` (x = [q; dq; u; s; ext; p; dt])
     compute the same with one input and one output each (one NumPy conversion a call),
     compiled to C when ``compiled`` (then ``step_flat`` is the fused step of
@@ -142,9 +111,12 @@ class GeneratorFunctions:
     compiled: bool
     terms_flat: ca.Function
     step_flat: ca.Function
+    effort: ca.Function  # [q; dq] -> [Tm dq; Tg] (time scaling)
     chunk: ca.Function | None = None
     chunk_steps: int = CHUNK
     record: ca.Function | None = None  # the fused step (x, par) -> (x_next, rec) of ej_step
+    native_chunk: Any = None  # cg.NativeFunction of chunk_flat (ej_step.build_chunk_flat)
+    _last: Array | None = None
     cache: dict[str, Any] = field(default_factory=dict)  # functions built later (ej_feedback)
 
     def evaluate(self, q: Array, dq: Array, p: Array) -> Terms:
@@ -155,16 +127,14 @@ class GeneratorFunctions:
         f0, fv, fp, S, T0, Tm, err, Tg, gK = np.split(v, cut)
         return Terms(f0, fv, fp, float(S[0]), T0, Tm.reshape(n, a).T, float(err[0]), Tg, gK)
 
-    def evaluate_many(self, Q: Array, DQ: Array, p: Array) -> tuple[Array, Array]:
-        """Tm (N, n_act, n) and Tg (N, n_act) at N states (rows of Q, DQ), one call."""
-        N, n, a = len(Q), self.n, self.n_act
+    def evaluate_many(self, Q: Array, DQ: Array) -> tuple[Array, Array]:
+        """beta = Tm dq and Tg (each (N, n_act)) at N states (rows of Q, DQ), one call of
+        ``effort`` (the coefficients of the time scaling, :mod:`ej_timescale`)."""
+        N = len(Q)
         X = np.vstack([np.asarray(Q, dtype=float).T, np.asarray(DQ, dtype=float).T])
-        X = np.vstack([X, np.repeat(np.asarray(p, dtype=float)[:, None], N, axis=1)])
-        V = np.asarray(self.terms_flat.map(N)(X))
-        start = 3 * n + 1 + a
-        Tm = V[start : start + a * n].T.reshape(N, n, a).transpose(0, 2, 1)
-        Tg = V[start + a * n + 1 : start + a * n + 1 + a].T
-        return np.ascontiguousarray(Tm), np.ascontiguousarray(Tg)
+        V = np.asarray(self.effort.map(N)(X))
+        a = self.n_act
+        return np.ascontiguousarray(V[:a].T), np.ascontiguousarray(V[a:].T)
 
     def advance(
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float
@@ -182,8 +152,28 @@ class GeneratorFunctions:
         if self.chunk is None:
             raise RuntimeError("no chunk function")
         par = np.concatenate([p, [u, s], ext, [dt]])
+        if self.native_chunk is not None:  # ctypes call, no CasADi/DM conversion
+            y = self._native_call(np.concatenate([q, dq, par]))
+            n, K = self.n, self.chunk_steps
+            X = y[: 2 * n * K].reshape(K, 2 * n)
+            R = y[2 * n * K : len(y) - n * n].reshape(K, -1)
+            return X, R
         X, R = self.chunk(np.concatenate([q, dq]), par)
         return np.asarray(X).T, np.asarray(R).T
+
+    def chunk_start_E(self) -> Array | None:
+        """E at the first state of the last native ``run_chunk`` call (None otherwise)."""
+        if self.native_chunk is None or self._last is None:
+            return None
+        n = self.n
+        return self._last[len(self._last) - n * n :].reshape(n, n, order="F")
+
+    def _native_call(self, x: Array) -> Array:
+        native = self.native_chunk
+        assert native is not None
+        native.x[:] = x
+        self._last = native().copy()
+        return self._last
 
 
 def build_functions(
@@ -194,11 +184,13 @@ def build_functions(
     arm_weight: float = 0.3,
     codegen: bool = False,
     notify: Callable[[str], None] | None = None,
+    cull: bool = True,
 ) -> GeneratorFunctions:
     """Build ``terms``, ``step``, ``chunk`` and ``E`` for one problem (eqs. (16)-(24) of 000).
 
     With ``codegen`` the flat functions are compiled to C (cached; ``notify`` is told before
-    a build that is not cached).
+    a build that is not cached); with ``cull`` (default) the compiled step evaluates an
+    obstacle's terms only when a collision point is near it (:mod:`ej_obstacles`, exact).
     """
     s = robot.symbols
     n = robot.n
@@ -214,7 +206,8 @@ def build_functions(
     E = ca.vertcat(ca.jacobian(e_I, q), A)  # (n, n)
     v1 = ca.vertcat(dde_I, de_II)
     v2 = ca.vertcat(p[4] * de_I + p[3] * e_I, p[5] * e_II)
-    rhs = ca.solve(E, ca.horzcat(v1, v2))
+    solve = functools.partial(structured_solve, robot)  # through ker A (5x5 for youbot-3r)
+    rhs = solve(E, ca.horzcat(v1, v2))
     f0, fv = -rhs[:, 0], -rhs[:, 1]
     # Wheel-metric null-space projector.
     Winv = ca.diag(ca.DM(wheel_metric_inverse(robot)))
@@ -241,48 +234,69 @@ def build_functions(
     u, sp = ca.SX.sym("u"), ca.SX.sym("s")
     ext = ca.SX.sym("ext", n)
     accel = ca.Function("acc", [q, dq, u, sp, ext, p], [f0 + u * fv + sp * fp + P @ ext])
-    damp = ca.Function("damp", [q], [S])
+    damp = ca.Function("damp", [q], [S, P])
     E_fn = ca.Function("mmplan_ej_E", [q, p], [E])
     xt = ca.SX.sym("x", 2 * n + 6)
     outs = terms(xt[:n], xt[n : 2 * n], xt[2 * n :])
     terms_flat = ca.Function("mmplan_ej_terms_flat", [xt], [ca.vertcat(*[ca.vec(o) for o in outs])])
     h, n_act = A.shape[0], len(robot.actuators)
+    xe, effort_expr = ca.vertcat(q, dq), ca.vertcat(Tm @ dq, Tg)
+    effort = ca.Function("mmplan_ej_effort", [xe], [effort_expr])
     parts = StepParts(
         q, dq, p, E, v1,
         ca.vertcat(p[4] * de_I, p[5] * e_II),
         ca.vertcat(p[3] * e_I, ca.SX.zeros(h)),
-        fp, S, P, T0, Tm, err,
+        fp, S, P, T0, Tm, err, solve,
     )  # fmt: skip
     if codegen:
         key_fn = ca.Function("key", [q, dq, p], [f0, fv, fp, S, T0, Tm, err, Tg, gK, P])
-        key = "\n".join([key_fn.serialize(), *(Path(m).read_text() for m in _SOURCES)])
+        key = "\n".join([key_fn.serialize(), str(cull), *(Path(m).read_text() for m in _SOURCES)])
 
         def make() -> list[ca.Function]:
-            record_c = build_record_step(parts, accel, damp, cse=True)
+            if obstacles and cull:  # obstacle blocks only where a point is near (ej_obstacles)
+                ob_terms, ob_damp = obstacle_functions(robot, obstacles, P, G, varrho)
+                fp_sym = ca.SX.sym("fp", n)
+                acc_fp = ca.Function(
+                    "mmplan_ej_acc",
+                    [q, dq, u, sp, ext, p, fp_sym],
+                    ca.cse([f0 + u * fv + sp * fp_sym + P @ ext]),
+                )
+                proj = ca.Function("mmplan_ej_proj", [q], [P])
+                record_c = build_record_step_culled(parts, acc_fp, ob_terms, ob_damp, proj)
+            else:
+                record_c = build_record_step(parts, accel, damp, cse=True)
             terms_c = ca.Function("mmplan_ej_terms_flat", [xt], ca.cse([terms_flat(xt)]))
-            return [terms_c, step_wrapper(record_c, n), build_chunk(record_c), record_c]
+            effort_c = ca.Function("mmplan_ej_effort", [xe], ca.cse([effort_expr]))
+            chunk_c = build_chunk(record_c)
+            flat = build_chunk_flat(chunk_c, E_fn)
+            return [terms_c, step_wrapper(record_c, n), chunk_c, record_c, effort_c, flat]
 
         built = cg.compile_library(make, "ej", CFLAGS, notify, key)
         if built is not None:
-            names = ["terms_flat", "step_flat", "chunk", "record_step"]
-            terms_flat, step_flat, chunk, record = cg.load([f"mmplan_ej_{x}" for x in names], built)
-            return GeneratorFunctions(
-                None, terms, E_fn, n, n_act, True, terms_flat, step_flat, chunk, record=record
+            names = ["terms_flat", "step_flat", "chunk", "record_step", "effort"]
+            terms_flat, step_flat, chunk, record, effort = cg.load(
+                [f"mmplan_ej_{x}" for x in names], built
             )
+            return GeneratorFunctions(
+                None, terms, E_fn, n, n_act, True, terms_flat, step_flat, effort, chunk,
+                record=record, native_chunk=cg.NativeFunction(built, "mmplan_ej_chunk_flat"),
+            )  # fmt: skip
     step, step_flat = reference_step(accel, damp, n, p)
     record = build_record_step(parts, accel, damp)
     chunk = build_chunk(record)
     return GeneratorFunctions(
-        step, terms, E_fn, n, n_act, False, terms_flat, step_flat, chunk, record=record
+        step, terms, E_fn, n, n_act, False, terms_flat, step_flat, effort, chunk, record=record
     )
 
 
 def _effort_split(robot: Robot) -> tuple[ca.SX, ca.SX]:
     """T0 (n_act,) and Tm (n_act, n) with tau = T0 + Tm ddq (eq. (22) of 000).
 
-    Without friction c(q, dq) = C(q, dq) dq + g(q) is rebuilt from M as
-    d/dt(M) dq - 1/2 d(dq^T M dq)/dq + g(q) (Lagrange), about half the expression size of the
-    robot's bias; with friction the robot's bias is used as is.
+    Without friction c(q, dq) = C(q, dq) dq + g(q) is rebuilt by Lagrange's equations from
+    the kinetic energy T written with the bodies' velocities (sum m |v_c|^2 / 2 +
+    omega^T I omega / 2): c = d/dt(dT/d dq) - dT/dq + g(q), 2.5-3x smaller than the robot's
+    bias (equal to 1e-17, tests/test_extended_jacobian.py); with friction the robot's bias is
+    used as is.
     """
     s = robot.symbols
     q, dq = s.q, s.dq
@@ -290,9 +304,18 @@ def _effort_split(robot: Robot) -> tuple[ca.SX, ca.SX]:
     if robot.friction:
         bias = s.bias
     else:
-        M = s.mass_matrix
         gravity = ca.substitute(s.bias, dq, ca.SX.zeros(robot.n))
-        bias = ca.jtimes(M @ dq, q, dq) - 0.5 * ca.gradient(dq.T @ M @ dq, q) + gravity
+        ke = ca.SX(0)  # kinetic energy from body velocities (cheaper than dq^T M dq / 2)
+        for name, pc in robot.tree.com_positions(s.transforms).items():
+            body = robot.tree.bodies[name].inertial
+            ke += 0.5 * body.mass * ca.sumsqr(ca.jtimes(pc, q, dq))
+            if np.any(body.inertia_matrix != 0):
+                R = s.transforms[name][:3, :3]
+                W = ca.jtimes(R, q, dq) @ R.T  # [omega]x in the world frame
+                w = R.T @ ca.vertcat(W[2, 1], W[0, 2], W[1, 0])
+                ke += 0.5 * w.T @ ca.DM(body.inertia_matrix) @ w
+        ke = ca.cse(ke)
+        bias = ca.jtimes(ca.gradient(ke, dq), q, dq) - ca.gradient(ke, q) + gravity
     T0 = ca.solve(NB, s.null_basis.T @ bias)
     Tm = ca.solve(NB, s.null_basis.T @ s.mass_matrix)
     return T0, Tm

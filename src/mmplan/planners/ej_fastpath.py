@@ -107,7 +107,10 @@ def run(
     none = Chunk(0, 0.0, q, dq, u, 1.0)
     if m == 0:
         return none
-    cond = float(np.linalg.cond(np.asarray(fns.E(q, p), dtype=float)))
+    E0 = fns.chunk_start_E() if not opt.torque_control else None
+    if E0 is None:
+        E0 = np.asarray(fns.E(q, p), dtype=float)
+    cond = float(np.linalg.cond(E0))
     switching = switch_possible and cond > opt.switch_cond
     if not np.isfinite(cond) or cond > opt.cond_limit or switching:
         return none  # the loop decides at sample k

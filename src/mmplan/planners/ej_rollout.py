@@ -69,7 +69,7 @@ class RolloutOptions:
     escape_gain: float = 4.0
     escape_time: float = 2.0
     max_escapes: int = 5
-    cond_every: int = 25
+    cond_every: int = 50
     cond_limit: float = 1e8
     switch_cond: float = 1e5
     max_switches: int = 4

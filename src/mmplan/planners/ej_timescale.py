@@ -45,10 +45,8 @@ def rollout_time_scaled(
     free = rollout(
         fns, pfaffian, winv, q0, p_f, dataclasses.replace(opt, torque_control=False), switch
     )
-    p = np.concatenate([p_f, opt.gains])
-    Tm, g = fns.evaluate_many(free.q, free.dq, p)  # one call for all samples
+    beta, g = fns.evaluate_many(free.q, free.dq)  # one call for all samples
     alpha = free.tau - g
-    beta = np.einsum("kij,kj->ki", Tm, free.dq)
     lo, hi = opt.zone
     sc = time_optimal_scaling(free.t, alpha, beta, g, lo, hi)
     info = dict(free.info)

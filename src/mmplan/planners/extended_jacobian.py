@@ -37,7 +37,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from mmplan.errors import InputError
-from mmplan.planners import ej_checks
+from mmplan.planners import ej_cache, ej_checks
 from mmplan.planners import virtual_control as vc
 from mmplan.planners.base import Planner, PlannerSettings, Problem, Progress, register
 from mmplan.planners.ej_criterion import (
@@ -254,17 +254,16 @@ class ExtendedJacobian(Planner):
         ej_checks.check_start_clearance(robot, problem.scene, obstacles, q0)
         obstacles = ej_checks.fit_influence(obstacles, p_f)
         partition = choose_partition(robot, q0)
-        build_clock = time.perf_counter()
-        crit = build_criterion(robot, partition, settings.penalty_weight)
-        fns = build_functions(
+        built = ej_cache.generator(
             robot,
-            crit,
+            partition,
             obstacles,
+            settings.penalty_weight,
             settings.varrho,
             settings.arm_gradient_weight,
-            codegen=settings.codegen,
+            settings.codegen,
         )
-        build_time = time.perf_counter() - build_clock
+        fns, build_time = built.fns, built.build_time
         gains = (settings.lambda_p, settings.lambda_v, settings.lambda_ii)
         ej_checks.check_conditioning(fns, q0, p_f, gains, settings.cond_limit)
         vcs = settings.virtual_control

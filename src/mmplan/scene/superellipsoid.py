@@ -39,6 +39,36 @@ from mmplan.scene.obstacle import (
 _SMOOTH_FLOOR = 1e-150  # value of each smoothed |t|^(2/e) term at t = 0 (see implicit_sym)
 
 
+def power_sym(x: ca.SX, a: float) -> ca.SX:
+    """x^a for x > 0 with a constant exponent, by multiplications where a is a small integer
+    or half-integer (x^10 = ((x^2)^2 x)^2, x^-0.5 = 1/sqrt(x)), else by ``pow``.
+
+    Same value to rounding; the derivatives CasADi forms are then products too. Measured on
+    the generator of youbot3r-obstacles (exponents 0.1 and 1, so powers 10, 1 and -0.5):
+    see :mod:`mmplan.planners.ej_dynamics`.
+    """
+    twice = 2.0 * a
+    if abs(twice - round(twice)) > 1e-12 or abs(a) > 32:
+        return x**a
+    k = round(twice)
+    half = k % 2 != 0
+    m = abs(k) // 2
+    out: ca.SX | None = None
+    base = x
+    while m:
+        if m & 1:
+            out = base if out is None else out * base
+        m >>= 1
+        if m:
+            base = base * base
+    if half:
+        root = ca.sqrt(x)
+        out = root if out is None else out * root
+    if out is None:
+        return ca.SX.ones(x.shape) if isinstance(x, ca.SX) else x * 0 + 1
+    return 1.0 / out if k < 0 else out
+
+
 def _exponent(value: Any, field: str) -> float:
     out = as_float(value, field)
     if not 0.0 < out <= 2.0:
@@ -148,9 +178,9 @@ class Superellipsoid(Obstacle):
 
         def term(t: ca.SX, e: float) -> ca.SX:
             eps = _SMOOTH_FLOOR ** (e / 2.0)
-            return (t**2 + eps**2) ** (1.0 / e)
+            return power_sym(t**2 + eps**2, 1.0 / e)
 
-        return (term(u[0], e2) + term(u[1], e2)) ** (e2 / e1) + term(u[2], e1)
+        return power_sym(term(u[0], e2) + term(u[1], e2), e2 / e1) + term(u[2], e1)
 
     def radial_distance_sym(self, p: ca.SX) -> ca.SX:
         """Symbolic radial distance C = |p'| (1 - F^(-e1/2)) of a point p (3, 1).
@@ -159,7 +189,7 @@ class Superellipsoid(Obstacle):
         """
         loc = self.local_sym(p)
         norm = ca.sqrt(ca.sumsqr(loc))
-        return norm * (1.0 - self.implicit_sym(p) ** (-self.exponents[0] / 2.0))
+        return norm * (1.0 - power_sym(self.implicit_sym(p), -self.exponents[0] / 2.0))
 
     # --------------------------------------------------------------------- variants
 

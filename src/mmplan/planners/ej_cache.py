@@ -1,0 +1,71 @@
+"""Generator cache of the extended-Jacobian planner: build once, plan many times (speed).
+
+Building the generator (criterion, symbolic step, loading the compiled library) takes
+0.1-0.2 s, more than a whole compiled plan. It depends on the robot, the column partition,
+the obstacle models with their (goal-fitted) neighbourhoods and four settings, not on the
+start or the goal position (p_f is a parameter of the generator), so replanning with the
+same robot object and scene (the use in a control loop) reuses it. The robot is compared
+by identity: a rebuilt robot is a new key. At most ``SIZE`` generators are kept (LRU).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from mmplan.planners.ej_criterion import Partition, build_criterion
+from mmplan.planners.ej_dynamics import GeneratorFunctions, ObstacleTerm, build_functions
+from mmplan.robot.robot import Robot
+
+SIZE = 8
+
+
+@dataclass(frozen=True)
+class Built:
+    """A generator and how it was obtained: build time [s] (0 when cached), cache hit."""
+
+    fns: GeneratorFunctions
+    build_time: float
+    cached: bool
+
+
+_CACHE: OrderedDict[tuple[object, ...], tuple[Robot, GeneratorFunctions]] = OrderedDict()
+
+
+def generator(
+    robot: Robot,
+    partition: Partition,
+    obstacles: Sequence[ObstacleTerm],
+    penalty_weight: float,
+    varrho: float,
+    arm_weight: float,
+    codegen: bool,
+) -> Built:
+    """The generator functions of this robot, partition, obstacles and settings (cached)."""
+    key = (
+        id(robot),
+        tuple(partition.R),
+        tuple(obstacles),
+        penalty_weight,
+        varrho,
+        arm_weight,
+        codegen,
+    )
+    hit = _CACHE.get(key)
+    if hit is not None and hit[0] is robot:
+        _CACHE.move_to_end(key)
+        return Built(hit[1], 0.0, True)
+    clock = time.perf_counter()
+    crit = build_criterion(robot, partition, penalty_weight)
+    fns = build_functions(robot, crit, obstacles, varrho, arm_weight, codegen=codegen)
+    _CACHE[key] = (robot, fns)
+    while len(_CACHE) > SIZE:
+        _CACHE.popitem(last=False)
+    return Built(fns, time.perf_counter() - clock, False)
+
+
+def clear() -> None:
+    """Forget every cached generator."""
+    _CACHE.clear()
