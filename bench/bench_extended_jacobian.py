@@ -4,15 +4,17 @@ Part 1 plans ``youbot4r-reach``, ``youbot4r-reach-smooth``, ``youbot3r-obstacles
 ``youbot3r-obstacles-torque`` with the generator compiled to C (CasADi code generation) and
 prints T(1 cm) / T(1 mm), clearance (exact geometry, original obstacles), torque maxima and
 limit violation, max cond(E), peak platform speed, manipulability, and motion duration /
-compute time (after the symbolic build, and including it; C libraries cached by a warm-up
-plan), against the baseline of the step-by-step loop (``rollout(fast=False)``: one
-``terms`` and one RK4 call a step) with the same compiled functions, in the same run.
+compute time: "warm" is a replan with the generator cached (:mod:`ej_cache`: same robot and
+scene, the use in a control loop; best of 7 on a shared machine), "cold" the first plan in
+the process (symbolic build, compiled C library loaded from the disk cache), against the
+baseline of the step-by-step loop (``rollout(fast=False)``: one ``terms`` and one RK4 call
+a step, generator cached, best of 3) with the same compiled functions, in the same run.
 Part 1b: accuracy and speed of youbot3r-obstacles against the step size.
 
 Part 2 times one generator step at the same state, compiled C against the baseline of the
 same CasADi SX functions evaluated by CasADi's virtual machine (not code-generated), in the
 same run: the ``terms`` call (E^-1 v1, E^-1 v2, push, damping, tau split), the RK4 ``step``
-call, one step of a 25-step ``chunk`` call, and the online step a control loop would call
+call, one step of a ``chunk`` call, and the online step a control loop would call
 (state in, ddq, tau, u out): ``terms`` + the NumPy virtual-control choice, and the one-call
 ``OnlineGenerator.step`` (ej_decision_sym; ctypes call of the C code when compiled).
 
@@ -36,7 +38,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from mmplan.planners import ej_rollout
+from mmplan.planners import ej_cache, ej_rollout
 from mmplan.planners import virtual_control as vc
 from mmplan.planners.ej_criterion import build_criterion, choose_partition
 from mmplan.planners.ej_decision import decide
@@ -65,7 +67,7 @@ def plan_scenarios() -> None:
     """Part 1: the four paper scenarios, compiled."""
     print(
         "scenario                    status   T1cm   T1mm  paper   clear  |tau|max (violation)"
-        "   cond(E)  v_max   mu0->mu1         motion/compute (incl. build)"
+        "   cond(E)  v_max   mu0->mu1         motion/compute warm (cold)"
     )
     for name in SCENARIOS:
         problem = load_scenario(name).build()
@@ -75,9 +77,17 @@ def plan_scenarios() -> None:
             problem, settings=settings.model_copy(update={"codegen": True})
         )
         ExtendedJacobian().plan(problem)  # warm-up: compiles (once, cached) what is not cached
+        ej_cache.clear()
+        cold = ExtendedJacobian().plan(problem)  # symbolic build + cached C library loaded
         with _step_by_step():
-            baseline = ExtendedJacobian().plan(problem)
-        result = ExtendedJacobian().plan(problem)
+            baseline = min(
+                (ExtendedJacobian().plan(problem) for _ in range(3)),
+                key=lambda r: r.compute_time_s,
+            )
+        # Replanning with the generator cached (ej_cache): best of 7 (shared machine).
+        result = min(
+            (ExtendedJacobian().plan(problem) for _ in range(7)), key=lambda r: r.compute_time_s
+        )
         tr, robot, task = result.trajectory, problem.robot, problem.task
         assert isinstance(task, ReachPoint)
         err = np.linalg.norm(tr.ee - np.asarray(task.position), axis=1)
@@ -91,17 +101,17 @@ def plan_scenarios() -> None:
         viol = float(np.max(np.maximum(np.maximum(tr.tau - hi, lo - tr.tau), 0.0)))
         wheels = np.abs(tr.tau[:, :2]).max(axis=0)
         speed = float(np.hypot(tr.dq[:, 0], tr.dq[:, 1]).max())
-        rollout_s = result.compute_time_s - float(result.info["build_time_s"])
+        rollout_s = result.compute_time_s  # warm: build_time_s is 0
         mu0, mu1 = robot.manipulability(tr.q[0]), robot.manipulability(tr.q[-1])
         print(
             f"{name:27s} {result.status.value:8s} {_f(t1)} {_f(t2)} {PAPER[name]:7s} {clear} "
             f"wheels {wheels[0]:.2f}/{wheels[1]:.2f} ({viol:.3f})  "
             f"{result.info['max_cond_E']:8.3g} {speed:5.2f}  {mu0:.5f}->{mu1:.5f}  "
-            f"{tr.duration / rollout_s:6.1f} ({tr.duration / result.compute_time_s:5.2f})"
+            f"{tr.duration / rollout_s:6.0f} ({tr.duration / cold.compute_time_s:5.0f})"
         )
         if result.info.get("infeasible_samples"):
             print(f"    {result.message}")
-        base_s = baseline.compute_time_s - float(baseline.info["build_time_s"])
+        base_s = baseline.compute_time_s
         same = (
             np.abs(baseline.trajectory.q - tr.q).max()
             if len(baseline.trajectory.t) == len(tr.t)
@@ -111,7 +121,8 @@ def plan_scenarios() -> None:
             f"    steps {len(tr.t)}, after build {rollout_s:.3f} s = "
             f"{rollout_s / len(tr.t) * 1e6:.0f} us/step "
             f"({result.info.get('chunked_samples', 0)} samples in chunks), "
-            f"build {result.info['build_time_s']:.2f} s (cached C), "
+            f"cold plan {cold.compute_time_s * 1e3:.1f} ms incl. symbolic build "
+            f"{cold.info['build_time_s'] * 1e3:.1f} ms (C library cached), "
             f"min perturbation scale {result.info['min_perturbation_scale']:.3f}\n"
             f"    baseline step-by-step loop (same C functions): {base_s:.3f} s = "
             f"motion/compute {tr.duration / base_s:.1f} -> {tr.duration / rollout_s:.1f} "

@@ -338,7 +338,8 @@ def test_chunked_fast_path_reproduces_the_step_by_step_loop(name: str, t_max: fl
     from mmplan.scenario import load_scenario
 
     problem = load_scenario(name).build()
-    settings = problem.settings.model_copy(update={"t_max": t_max})
+    dt = min(problem.settings.dt, 0.002)  # several chunks within t_max
+    settings = problem.settings.model_copy(update={"t_max": t_max, "dt": dt})
     problem = dataclasses.replace(problem, settings=settings)
     prep = ExtendedJacobian._prepare(problem)
     assert prep.fns.chunk is not None

@@ -132,7 +132,12 @@ class GeneratorFunctions:
         ``effort`` (the coefficients of the time scaling, :mod:`ej_timescale`)."""
         N = len(Q)
         X = np.vstack([np.asarray(Q, dtype=float).T, np.asarray(DQ, dtype=float).T])
-        V = np.asarray(self.effort.map(N)(X))
+        key = f"effort_map{N}"
+        if key not in self.cache:  # building a map costs ~0.5 ms; replans reuse it
+            for old in [k for k in self.cache if k.startswith("effort_map")][8:]:
+                del self.cache[old]
+            self.cache[key] = self.effort.map(N)
+        V = np.asarray(self.cache[key](X))
         a = self.n_act
         return np.ascontiguousarray(V[:a].T), np.ascontiguousarray(V[a:].T)
 

@@ -105,8 +105,8 @@ class ExtendedJacobianSettings(PlannerSettings):
 
     method: Literal["extended-jacobian"] = "extended-jacobian"
     t_max: float = Field(60.0, gt=0, allow_inf_nan=False, description="simulated seconds")
-    dt: float = Field(0.002, gt=0, le=0.05, allow_inf_nan=False,
-                      description="integration step [s] (RK4)")
+    dt: float = Field(0.01, gt=0, le=0.05, allow_inf_nan=False,
+                      description="integration step [s] (RK4; 10 ms: path within 0.05 mm of 2 ms)")
     lambda_p: float = Field(1.75, gt=0, allow_inf_nan=False,
                             description="Lambda_P, eq. (14) of 000")
     lambda_v: float = Field(2.78, gt=0, allow_inf_nan=False,
