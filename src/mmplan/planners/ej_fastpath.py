@@ -13,13 +13,14 @@ virtual-control choice) and the loop handles that sample itself.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.planners import ej_feedback
 from mmplan.planners.ej_dynamics import GeneratorFunctions
+from mmplan.planners.ej_samples import SampleLog
 
 if TYPE_CHECKING:
     from mmplan.planners.ej_rollout import RolloutOptions
@@ -76,7 +77,7 @@ def run(
     k: int,
     opt: RolloutOptions,
     clock: StallClock,
-    rows: dict[str, list[Any]],
+    rows: SampleLog,
     switch_possible: bool,
 ) -> Chunk:
     """Run one chunk from sample k (virtual control u so far); append accepted samples to rows."""
@@ -96,7 +97,7 @@ def run(
     t = kk * dt
     event = ~np.isfinite(flag) | ~np.all(np.isfinite(X), axis=1) | (err < opt.stop_error)
     event |= ok < 0.5
-    history = np.asarray(rows["err"][max(0, k - clock.window) : k], dtype=float)
+    history = rows.error(max(0, k - clock.window), k)
     older = np.concatenate([history, err])  # err at sample kk - window, where kk >= window
     idx = kk - clock.window - max(0, k - clock.window)
     wait = clock.escape_until + (opt.stall_window if clock.escapes else 0.0)
@@ -115,13 +116,6 @@ def run(
     if not np.isfinite(cond) or cond > opt.cond_limit or switching:
         return none  # the loop decides at sample k
     states = np.vstack([np.concatenate([q, dq]), X[: m - 1]])
-    rows["t"].extend(t[:m].tolist())
-    rows["q"].extend(states[:, :n])
-    rows["dq"].extend(states[:, n:])
-    rows["ddq"].extend(ddq[:m])
-    rows["tau"].extend(tau[:m])
-    rows["u"].extend(us[:m].tolist())
-    rows["s"].extend(ss[:m].tolist())
-    rows["err"].extend(err[:m].tolist())
+    rows.add(t[:m], states[:, :n], states[:, n:], ddq[:m], tau[:m], us[:m], ss[:m], err[:m])
     x_m = X[m - 1]
     return Chunk(m, cond, x_m[:n].copy(), x_m[n:].copy(), float(us[m - 1]), float(ss[:m].min()))

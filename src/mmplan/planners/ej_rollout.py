@@ -42,6 +42,7 @@ from mmplan.planners import ej_fastpath
 from mmplan.planners import virtual_control as vc
 from mmplan.planners.ej_decision import decide
 from mmplan.planners.ej_dynamics import GeneratorFunctions
+from mmplan.planners.ej_samples import SampleLog
 from mmplan.trajectory import Status
 
 Array = NDArray[np.float64]
@@ -125,9 +126,9 @@ def rollout(
     p = np.concatenate([p_f, opt.gains])
     q, dq = np.array(q0, dtype=float), np.zeros(n)
     u = 0.0 if opt.torque_control else 1.0
-    rows: dict[str, list[Any]] = {k: [] for k in ("t", "q", "dq", "ddq", "tau", "u", "s", "err")}
     status, message = Status.TIMEOUT, f"t_max = {opt.t_max} s reached before the goal"
     steps = int(np.ceil(opt.t_max / dt))
+    rows = SampleLog(steps + 1)
     window = max(1, round(opt.stall_window / dt))
     escape_left, escape_until, escapes, switches = 0, -1.0, 0, 0
     escape_dir: Array | None = None
@@ -174,23 +175,13 @@ def rollout(
             infeasible_first = t if infeasible_first is None else infeasible_first
         s_min = min(s_min, s) if S > 0.0 else s_min
         ddq, tau = d.ddq, d.tau
-        for key, val in (
-            ("t", t),
-            ("q", q.copy()),
-            ("dq", dq.copy()),
-            ("ddq", ddq),
-            ("tau", tau),
-            ("u", u),
-            ("s", s),
-            ("err", err),
-        ):
-            rows[key].append(val)
+        rows.add_one(t, q, dq, ddq, tau, u, s, err)
         if err < opt.stop_error:
             status, message = Status.REACHED, f"goal reached at t = {t:.3f} s"
             break
         # After an escape the generator gets a full window before the next stall verdict.
         if k >= window and t >= escape_until + (opt.stall_window if escapes else 0.0):
-            progress = rows["err"][k - window] - err
+            progress = float(rows.error(k - window, k - window + 1)[0]) - err
             if progress < opt.stall_progress:
                 if opt.escape and S > 0.0 and escapes < opt.max_escapes:
                     escape_dir = _escape_direction(out.gK, q, p_f)
@@ -222,7 +213,7 @@ def rollout(
 
 
 def finish(
-    rows: dict[str, list[Any]],
+    rows: SampleLog,
     status: Status,
     message: str,
     infeasible_samples: int,
@@ -235,9 +226,9 @@ def finish(
     Any sample whose efforts leave the true limits (not only the safety zone) makes the run
     ``infeasible`` (eq. (30) violated), even when the goal was reached.
     """
-    if not rows["t"]:
+    if not len(rows):
         raise RuntimeError("rollout produced no sample")  # cannot happen: k = 0 is recorded
-    arr = {k: np.asarray(v, dtype=float) for k, v in rows.items()}
+    arr = rows.arrays()
     over = np.zeros(len(arr["t"]))
     if opt.torque_control:
         t_lo, t_hi = opt.limits

@@ -144,7 +144,11 @@ class ExtendedJacobianSettings(PlannerSettings):
     cond_limit: float = Field(1e8, gt=1, allow_inf_nan=False,
                               description="cond(E) above which the run diverged")
     codegen: bool = Field(
-        False, description="compile the generator to C (faster steps, ~30 s build)"
+        False, description="compile the generator to C (faster steps, 5-20 s build, cached)"
+    )
+    vibration: bool = Field(
+        True, description="add paper 003's tip-vibration study to the result (analysis after "
+        "planning, not in compute_time_s; off when replanning in a loop)",
     )
 
 
@@ -162,6 +166,7 @@ class _Prepared:
     time_scaling: bool
     switch: Callable[[NDArray[np.float64]], GeneratorFunctions | None]
     partitions: list[Partition]
+    vibration: bool
 
 
 @register
@@ -226,7 +231,7 @@ class ExtendedJacobian(Planner):
         )
         # Paper 003's claim (smoother torques shake the arm less), measured on every plan:
         # tip-acceleration RMS and spectrum of a compliant tip (not counted in compute time).
-        return with_vibration(result, robot)
+        return with_vibration(result, robot) if prep.vibration else result
 
     def online(self, problem: Problem) -> OnlineGenerator:
         """The generator as an online step for a control loop (state in; ddq, tau, u out)."""
@@ -319,4 +324,5 @@ class ExtendedJacobian(Planner):
             time_scaling,
             switch,
             partitions,
+            settings.vibration,
         )
