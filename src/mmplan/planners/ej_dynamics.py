@@ -11,7 +11,8 @@ One symbolic model, two CasADi functions (optionally code-generated to C and com
 * fp = P (-varrho G grad K): the obstacle push of eq. (19) projected into ker A with the
   wheel-metric projector P = I - W^-1 A^T (A W^-1 A^T)^-1 A, W^-1 = diag(1, .., 1/r^2 at the
   wheel angles, .., 1) (SPEC pitfall: the Euclidean A^+ A shrinks the push ~800x); G weights
-  the gradient (1 on platform coordinates, ``arm_weight`` on arm joints);
+  the gradient (1 on platform coordinates, ``arm_weight`` on arm joints); near the goal its
+  end-effector part fades out (:mod:`mmplan.planners.ej_nearpush`);
 * S = varrho K, K = sum over collision points and obstacles of
   kappa_o = ((delta - C)/C)^2 for C < delta (C the radial distance to the enlarged
   superellipsoid): the damping rate of the term -varrho dq K of eq. (19);
@@ -30,7 +31,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.planners import codegen as cg
-from mmplan.planners import ej_obstacles, ej_step
+from mmplan.planners import ej_nearpush, ej_obstacles, ej_step
 from mmplan.planners.ej_criterion import Criterion
 from mmplan.planners.ej_obstacles import ObstacleTerm, obstacle_functions, obstacle_penalty
 from mmplan.planners.ej_step import (
@@ -62,7 +63,7 @@ Array = NDArray[np.float64]
 CFLAGS = ("-O2", "-march=native")
 
 #: Source files whose code shapes the compiled library (part of its cache key).
-_SOURCES = (__file__, ej_step.__file__, ej_obstacles.__file__)
+_SOURCES = (__file__, ej_step.__file__, ej_obstacles.__file__, ej_nearpush.__file__)
 
 
 def wheel_metric_inverse(robot: Robot) -> np.ndarray:
@@ -221,13 +222,26 @@ def build_functions(
     G = np.ones(n)
     G[list(robot.arm_indices)] = arm_weight
     gK = ca.gradient(K, q)
-    fp = P @ (-varrho * (ca.DM(G) * gK))
+    err = ca.norm_2(s.ee_position - p[:3])
+
+    def applied(fp_raw: ca.SX, K: ca.SX) -> ca.SX:
+        """The push as applied: near the goal without its end-effector part, arm parts fading
+        towards joint limits (:mod:`mmplan.planners.ej_nearpush`)."""
+        if not obstacles:
+            return fp_raw
+        out = ej_nearpush.project_push(
+            fp_raw, s.jacobian, A, wheel_metric_inverse(robot), ej_nearpush.fade(err, K)
+        )
+        return ej_nearpush.fade_at_limits(
+            out, q, list(robot.arm_indices), robot.limits.joint_min, robot.limits.joint_max
+        )
+
+    fp = applied(P @ (-varrho * (ca.DM(G) * gK)), K)
     S = varrho * K
     T0, Tm = _effort_split(robot)
     Tg = ca.solve(
         s.null_basis.T @ s.actuation, s.null_basis.T @ ca.substitute(s.bias, dq, ca.SX.zeros(n))
     )
-    err = ca.norm_2(s.ee_position - p[:3])
     terms = ca.Function(
         "mmplan_ej_terms",
         [q, dq, p],
@@ -260,14 +274,18 @@ def build_functions(
         def make() -> list[ca.Function]:
             if obstacles and cull:  # obstacle blocks only where a point is near (ej_obstacles)
                 ob_terms, ob_damp = obstacle_functions(robot, obstacles, P, G, varrho)
-                fp_sym = ca.SX.sym("fp", n)
+                S_sym, fp_sym = ca.SX.sym("S"), ca.SX.sym("fp", n)
+                fp_applied = applied(fp_sym, S_sym / varrho)
                 acc_fp = ca.Function(
                     "mmplan_ej_acc",
-                    [q, dq, u, sp, ext, p, fp_sym],
-                    ca.cse([f0 + u * fv + sp * fp_sym + P @ ext]),
+                    [q, dq, u, sp, ext, p, fp_sym, S_sym],
+                    ca.cse([f0 + u * fv + sp * fp_applied + P @ ext]),
                 )
                 proj = ca.Function("mmplan_ej_proj", [q], [P])
-                record_c = build_record_step_culled(parts, acc_fp, ob_terms, ob_damp, proj)
+                culled = replace(parts, S=S_sym, fp=fp_applied)
+                record_c = build_record_step_culled(
+                    culled, S_sym, fp_sym, acc_fp, ob_terms, ob_damp, proj
+                )
             else:
                 record_c = build_record_step(parts, accel, damp, cse=True)
             terms_c = ca.Function("mmplan_ej_terms_flat", [xt], ca.cse([terms_flat(xt)]))

@@ -31,7 +31,7 @@ tested against.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -144,6 +144,8 @@ def _head(parts: StepParts) -> _Head:
 
 def build_record_step_culled(
     parts: StepParts,
+    S_sym: ca.SX,
+    fp_sym: ca.SX,
     accel: ca.Function,
     obstacle_terms: ca.Function,
     obstacle_damping: ca.Function,
@@ -152,18 +154,19 @@ def build_record_step_culled(
     """``record_step`` with the obstacle terms as culled calls (:mod:`ej_obstacles`).
 
     The sample part and the stage accelerations are SX functions (common subexpressions
-    merged) of the state and of (S, fp); S and fp come from ``obstacle_terms`` (which skips
-    obstacles no collision point is near); the composition is MX. Same values as
+    merged) of the state and of the raw obstacle terms (S, fp) that ``obstacle_terms`` returns
+    (it skips obstacles no collision point is near); the composition is MX. Same values as
     :func:`build_record_step` to rounding.
 
     Args:
-        parts: Generator pieces; ``parts.S`` and ``parts.fp`` are not used.
-        accel: (q, dq, u, s, ext, p, fp) -> f0 + u fv + s fp + P ext.
-        obstacle_terms: q -> (S, fp). obstacle_damping: q -> S. projector: q -> P.
+        parts: Generator pieces with ``parts.S`` and ``parts.fp`` written in the symbols
+            ``S_sym`` and ``fp_sym`` (the push as applied, e.g. after :mod:`ej_nearpush`).
+        S_sym, fp_sym: Symbols of the raw damping rate (1) and push (n).
+        accel: (q, dq, u, s, ext, p, fp_raw, S) -> f0 + u fv + s fp + P ext.
+        obstacle_terms: q -> (S, fp_raw). obstacle_damping: q -> S. projector: q -> P.
     """
     n = parts.q.numel()
-    S_sym, fp_sym = ca.SX.sym("S"), ca.SX.sym("fp", n)
-    h = _head(replace(parts, S=S_sym, fp=fp_sym))
+    h = _head(parts)
     head = ca.Function("mmplan_ej_head", [h.x, h.par, S_sym, fp_sym], ca.cse([h.d1, h.k1a, h.rec]))
     xm, pm = ca.MX.sym("x", 2 * n), ca.MX.sym("par", h.par.numel())
     q, p, u, s, ext, dt = xm[:n], pm[:6], pm[6], pm[7], pm[8 : 8 + n], pm[8 + n]
@@ -171,7 +174,8 @@ def build_record_step_culled(
     d1, k1a, rec = head(xm, pm, S0, fp0)
 
     def stage(qs: ca.MX, vs: ca.MX, u: ca.MX, s: ca.MX, ext: ca.MX, p: ca.MX) -> ca.MX:
-        return accel(qs, vs, u, s, ext, p, obstacle_terms(qs)[1])
+        S_s, fp_s = obstacle_terms(qs)
+        return accel(qs, vs, u, s, ext, p, fp_s, S_s)
 
     def damp(qs: ca.MX) -> tuple[ca.MX, ca.MX]:
         return obstacle_damping(qs), projector(qs)

@@ -118,7 +118,7 @@ class ExtendedJacobianSettings(PlannerSettings):
     obstacle_margin: float = Field(0.05, ge=0, allow_inf_nan=False,
                                    description="enlargement of obstacles [m]")
     influence: float = Field(
-        0.3, gt=0, allow_inf_nan=False,
+        0.15, gt=0, allow_inf_nan=False,
         description="neighbourhood delta when an obstacle has none [m]",
     )
     varrho: float = Field(1.0, gt=0, allow_inf_nan=False,
