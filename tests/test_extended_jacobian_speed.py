@@ -139,8 +139,9 @@ def test_culled_obstacle_terms_equal_the_full_sum(setup: Setup, rng: np.random.G
         for loc, g in zip(local, groups, strict=True)
     ]
     active = culled = mixed = nonzero = 0
+    params = np.zeros(ej_obstacles.N_PARAMS)  # unused without ``applied``
     for q in _configs(robot, obstacles, rng, 80):
-        S_c, fp_c = (np.asarray(v, dtype=float).ravel() for v in terms(q))
+        S_c, fp_c = (np.asarray(v, dtype=float).ravel() for v in terms(q, params))
         S_r, fp_r = (np.asarray(v, dtype=float).ravel() for v in ref(q))
         np.testing.assert_allclose(S_c, S_r, rtol=1e-12, atol=0.0)
         np.testing.assert_allclose(float(damping(q)), S_r[0], rtol=1e-12, atol=0.0)
@@ -317,3 +318,25 @@ def test_generator_cache(setup: Setup, fresh_cache: None) -> None:
     assert not build(varrho=9.0).cached
     assert build(varrho=keys[0]).fns is fns[0] and build(varrho=keys[-1]).fns is fns[-1]
     assert not build(varrho=keys[1]).cached
+
+
+def test_culled_record_step_near_the_goal_equals_the_reference(
+    setup: Setup, generator: Generator
+) -> None:
+    """Within 0.3 m of the goal the push loses its end-effector part (ej_nearpush): the culled
+    step computes that projection behind a conditional; same values as the SX reference."""
+    from mmplan.planners import ej_nearpush
+
+    fns, made = generator
+    robot, n = setup[0], fns.n
+    projected = 0
+    for x, par in _states(setup, fns, 12):
+        par = par.copy()
+        par[:3] = robot.ee_position(x[:n]) + np.array([0.05, -0.03, 0.02])  # goal 6 cm away
+        K = fns.evaluate(x[:n], x[n:], par[:6]).S / VARRHO
+        projected += K < ej_nearpush.K_HI  # fade > 0: the projection acts
+        ref = [np.asarray(v).ravel() for v in made["ref_record"](x, par)]
+        got = [np.asarray(v).ravel() for v in made["mmplan_ej_record_step"](x, par)]
+        for a, b in zip(got, ref, strict=True):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
+    assert projected >= 3, projected

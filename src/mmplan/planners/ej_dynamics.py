@@ -273,16 +273,17 @@ def build_functions(
 
         def make() -> list[ca.Function]:
             if obstacles and cull:  # obstacle blocks only where a point is near (ej_obstacles)
-                ob_terms, ob_damp = obstacle_functions(robot, obstacles, P, G, varrho)
+                winv = wheel_metric_inverse(robot)
+                finish = ej_nearpush.finish_function(robot, A, q, p, winv)
+                ob_terms, ob_damp = obstacle_functions(robot, obstacles, P, G, varrho, finish)
                 S_sym, fp_sym = ca.SX.sym("S"), ca.SX.sym("fp", n)
-                fp_applied = applied(fp_sym, S_sym / varrho)
                 acc_fp = ca.Function(
                     "mmplan_ej_acc",
-                    [q, dq, u, sp, ext, p, fp_sym, S_sym],
-                    ca.cse([f0 + u * fv + sp * fp_applied + P @ ext]),
+                    [q, dq, u, sp, ext, p, fp_sym],
+                    ca.cse([f0 + u * fv + sp * fp_sym + P @ ext]),
                 )
                 proj = ca.Function("mmplan_ej_proj", [q], [P])
-                culled = replace(parts, S=S_sym, fp=fp_applied)
+                culled = replace(parts, S=S_sym, fp=fp_sym)
                 record_c = build_record_step_culled(
                     culled, S_sym, fp_sym, acc_fp, ob_terms, ob_damp, proj
                 )

@@ -27,9 +27,14 @@ must be exactly 1 near the goal: any task part left balances the attraction at
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
+
+from mmplan.planners.ej_obstacles import conditional
+from mmplan.robot.robot import Robot
 
 #: Full projection within this end-effector error [m]; none beyond ``R_OUT``.
 R_IN, R_OUT = 0.15, 0.3
@@ -91,3 +96,45 @@ def fade_at_limits(
         room = ca.if_else(fp[i] > 0.0, q_max[j] - q[i], q[i] - q_min[j])
         out[i] = fp[i] * smoothstep(room / margin)
     return ca.vertcat(*out)
+
+
+def finish_function(
+    robot: Robot, A: ca.SX, q: ca.SX, p: ca.SX, winv: NDArray[np.float64]
+) -> Callable[[ca.MX, ca.MX, ca.MX, ca.MX], ca.MX]:
+    """The push as applied (:func:`project_push`, then :func:`fade_at_limits`) for the culled
+    compiled step (:mod:`ej_obstacles`), as MX calls: the projection (a 6x6 solve) runs only
+    where its fade is positive (within ``R_OUT`` of the goal), the joint-limit fade always.
+
+    Args:
+        robot: The robot. A: Its Pfaffian (h, n) in q. q: Coordinates symbol.
+        p: Generator parameters symbol [p_f, gains]. winv: Diagonal of W^-1 (n,).
+    """
+    s = robot.symbols
+    n = robot.n
+    K_s, sigma_s, fp_s = ca.SX.sym("K"), ca.SX.sym("sigma"), ca.SX.sym("fp", n)
+    err = ca.norm_2(s.ee_position - p[:3])
+    fade_fn = ca.Function("mmplan_push_fade", [q, p, K_s], [fade(err, K_s)])
+    project = ca.Function(
+        "mmplan_push_project",
+        [q, fp_s, sigma_s],
+        ca.cse([project_push(fp_s, s.jacobian, A, winv, sigma_s)]),
+    )
+    limits = ca.Function(
+        "mmplan_push_limits",
+        [q, fp_s],
+        [
+            fade_at_limits(
+                fp_s, q, list(robot.arm_indices), robot.limits.joint_min, robot.limits.joint_max
+            )
+        ],
+    )
+
+    keep = ca.Function("mmplan_push_keep", [q, fp_s, sigma_s], [fp_s])
+
+    def finish(qm: ca.MX, pm: ca.MX, fp_raw: ca.MX, K: ca.MX) -> ca.MX:
+        sigma = fade_fn(qm, pm, K)
+        args = [qm, fp_raw, sigma]
+        projected = conditional("mmplan_push_project_if", sigma > 0, project, args, keep)
+        return limits(qm, projected)
+
+    return finish

@@ -14,8 +14,9 @@ circuit, a CasADi ``Switch``):
   at least the distance to the box; if the sphere around a group is at least delta from the
   box, every kappa of the group and its gradient are exactly 0. Culling is exact: the same
   values as the full sum to rounding (tested), not an approximation.
-* ``obstacle_terms(q) -> (S, fp)``, S = varrho K and fp = P (-varrho G dK/dq) as in
-  :mod:`ej_dynamics`; ``obstacle_damping(q) -> S``.
+* ``obstacle_terms(q, p) -> (S, fp)``, S = varrho K and fp = P (-varrho G dK/dq) (after
+  :mod:`ej_nearpush`, which needs the goal in p) as in :mod:`ej_dynamics`, the push computed
+  only when some block is near; ``obstacle_damping(q) -> S``.
 
 Measured (CPU time of one compiled step on youbot3r-obstacles-torque, same run, dt 10 ms;
 ``python bench/bench_extended_jacobian.py``): 28.6 us full vs 8.9 us culled near the start
@@ -25,7 +26,7 @@ obstacles (MX call overhead: about 2 us a step).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -39,7 +40,8 @@ Array = NDArray[np.float64]
 
 #: Largest number of collision points in one culled block (:func:`point_groups`).
 GROUP_SIZE = 10
-
+#: Generator parameters p = [p_f (3), Lambda_P, Lambda_V, Lambda_II].
+N_PARAMS = 6
 
 
 class SmoothObstacle(Protocol):
@@ -96,6 +98,25 @@ def box_gap_sym(model: Any, point: ca.SX) -> ca.SX:
     return ca.sqrt(ca.sumsqr(out))
 
 
+def conditional(
+    name: str,
+    cond: ca.MX,
+    fn: ca.Function,
+    args: Sequence[ca.MX],
+    fallback: ca.Function | None = None,
+) -> ca.MX:
+    """fn(*args) where ``cond`` (0 or 1) holds, else fallback(*args) (zeros by default).
+
+    A CasADi ``Switch`` on explicit inputs: only the taken branch runs. (``if_else`` with
+    short circuit builds the branch from the symbolic primitives, so an input computed from q
+    would be recomputed inside the branch: measured 2x slower steps.)
+    """
+    if fallback is None:
+        fallback = ca.Function(name + "_zero", fn.mx_in(), [ca.MX.zeros(fn.sparsity_out(0))])
+    out: ca.MX = ca.Function.if_else(name, fn, fallback)(cond, *args)
+    return out
+
+
 def point_groups(robot: Robot, size: int = GROUP_SIZE) -> list[list[int]]:
     """Collision points grouped per body, each body's points split by recursive bisection
     along their longest extent (body frame) into groups of at most ``size``."""
@@ -126,8 +147,9 @@ def obstacle_functions(
     projector: ca.SX,
     weights: np.ndarray,
     varrho: float,
+    finish: Callable[[ca.MX, ca.MX, ca.MX, ca.MX], ca.MX] | None = None,
 ) -> tuple[ca.Function, ca.Function]:
-    """``obstacle_terms(q) -> (S, fp)`` and ``obstacle_damping(q) -> S`` with culling.
+    """``obstacle_terms(q, p) -> (S, fp)`` and ``obstacle_damping(q) -> S`` with culling.
 
     The collision points are grouped (:func:`point_groups`); a group's block for one obstacle
     is evaluated when the group's bounding sphere (centre = mean of its points, a rigid-body
@@ -141,6 +163,8 @@ def obstacle_functions(
         projector: P(q) (n, n), the wheel-metric projector into ker A.
         weights: G (n,), gradient weight per coordinate.
         varrho: Perturbation gain.
+        finish: (q, p, fp_raw, K) -> the push as applied (MX; :mod:`ej_nearpush`),
+            evaluated with the projection only when some block is near (else fp = 0).
     """
     s = robot.symbols
     q, points, n = s.q, s.collision_points, robot.n
@@ -168,12 +192,22 @@ def obstacle_functions(
             block = ca.Function(name, [q], ca.cse([ca.vertcat(K, ca.gradient(K, q))]))
             value = ca.Function(name + "_k", [q], ca.cse([K]))
             flag = near[g * len(obstacles) + j]
-            out = ca.if_else(flag, block(qm), ca.MX.zeros(n + 1), True)
+            out = conditional(name + "_if", flag, block, [qm])
             S_total += out[0]
             grad += out[1:]
-            S_only += ca.if_else(flag, value(qm), 0.0, True)
-    P = ca.Function("mmplan_proj", [q], [projector])(qm)
-    fp = P @ (-varrho * (ca.DM(weights) * grad))
-    terms = ca.Function("mmplan_obstacle_terms", [qm], [varrho * S_total, fp])
+            S_only += conditional(name + "_k_if", flag, value, [qm])
+    # The push P (-varrho G dK/dq), as ``finish`` changes it, only when some block is near.
+    grad_s = ca.SX.sym("grad", n)
+    raw = ca.Function(
+        "mmplan_obstacle_push_raw", [q, grad_s], [projector @ (-varrho * (ca.DM(weights) * grad_s))]
+    )
+    ins = [ca.MX.sym("q", n), ca.MX.sym("p", N_PARAMS), ca.MX.sym("grad", n), ca.MX.sym("K")]
+    fp_in = raw(ins[0], ins[2])
+    if finish is not None:
+        fp_in = finish(ins[0], ins[1], fp_in, ins[3])
+    push = ca.Function("mmplan_obstacle_push", ins, [fp_in])
+    pm = ca.MX.sym("p", N_PARAMS)
+    fp = conditional("mmplan_obstacle_push_if", ca.mmax(near), push, [qm, pm, grad, S_total])
+    terms = ca.Function("mmplan_obstacle_terms", [qm, pm], [varrho * S_total, fp])
     damping = ca.Function("mmplan_obstacle_damping", [qm], [varrho * S_only])
     return terms, damping

@@ -154,28 +154,26 @@ def build_record_step_culled(
     """``record_step`` with the obstacle terms as culled calls (:mod:`ej_obstacles`).
 
     The sample part and the stage accelerations are SX functions (common subexpressions
-    merged) of the state and of the raw obstacle terms (S, fp) that ``obstacle_terms`` returns
+    merged) of the state and of the obstacle terms (S, fp) that ``obstacle_terms`` returns
     (it skips obstacles no collision point is near); the composition is MX. Same values as
     :func:`build_record_step` to rounding.
 
     Args:
-        parts: Generator pieces with ``parts.S`` and ``parts.fp`` written in the symbols
-            ``S_sym`` and ``fp_sym`` (the push as applied, e.g. after :mod:`ej_nearpush`).
-        S_sym, fp_sym: Symbols of the raw damping rate (1) and push (n).
-        accel: (q, dq, u, s, ext, p, fp_raw, S) -> f0 + u fv + s fp + P ext.
-        obstacle_terms: q -> (S, fp_raw). obstacle_damping: q -> S. projector: q -> P.
+        parts: Generator pieces with ``parts.S`` and ``parts.fp`` the symbols S_sym, fp_sym.
+        S_sym, fp_sym: Symbols of the damping rate (1) and the push as applied (n).
+        accel: (q, dq, u, s, ext, p, fp) -> f0 + u fv + s fp + P ext.
+        obstacle_terms: (q, p) -> (S, fp). obstacle_damping: q -> S. projector: q -> P.
     """
     n = parts.q.numel()
     h = _head(parts)
     head = ca.Function("mmplan_ej_head", [h.x, h.par, S_sym, fp_sym], ca.cse([h.d1, h.k1a, h.rec]))
     xm, pm = ca.MX.sym("x", 2 * n), ca.MX.sym("par", h.par.numel())
     q, p, u, s, ext, dt = xm[:n], pm[:6], pm[6], pm[7], pm[8 : 8 + n], pm[8 + n]
-    S0, fp0 = obstacle_terms(q)
+    S0, fp0 = obstacle_terms(q, p)
     d1, k1a, rec = head(xm, pm, S0, fp0)
 
     def stage(qs: ca.MX, vs: ca.MX, u: ca.MX, s: ca.MX, ext: ca.MX, p: ca.MX) -> ca.MX:
-        S_s, fp_s = obstacle_terms(qs)
-        return accel(qs, vs, u, s, ext, p, fp_s, S_s)
+        return accel(qs, vs, u, s, ext, p, obstacle_terms(qs, p)[1])
 
     def damp(qs: ca.MX) -> tuple[ca.MX, ca.MX]:
         return obstacle_damping(qs), projector(qs)
