@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 from mmplan.planners import codegen as cg
 from mmplan.planners import ej_nearpush, ej_obstacles, ej_step
 from mmplan.planners.ej_criterion import Criterion
+from mmplan.planners.ej_effort import effort_split
 from mmplan.planners.ej_obstacles import ObstacleTerm, obstacle_functions, obstacle_penalty
 from mmplan.planners.ej_step import (
     CHUNK,
@@ -238,7 +239,7 @@ def build_functions(
 
     fp = applied(P @ (-varrho * (ca.DM(G) * gK)), K)
     S = varrho * K
-    T0, Tm = _effort_split(robot)
+    T0, Tm = effort_split(robot)
     Tg = ca.solve(
         s.null_basis.T @ s.actuation, s.null_basis.T @ ca.substitute(s.bias, dq, ca.SX.zeros(n))
     )
@@ -311,35 +312,3 @@ def build_functions(
     return GeneratorFunctions(
         step, terms, E_fn, n, n_act, False, terms_flat, step_flat, effort, chunk, record=record
     )
-
-
-def _effort_split(robot: Robot) -> tuple[ca.SX, ca.SX]:
-    """T0 (n_act,) and Tm (n_act, n) with tau = T0 + Tm ddq (eq. (22) of 000).
-
-    Without friction c(q, dq) = C(q, dq) dq + g(q) is rebuilt by Lagrange's equations from
-    the kinetic energy T written with the bodies' velocities (sum m |v_c|^2 / 2 +
-    omega^T I omega / 2): c = d/dt(dT/d dq) - dT/dq + g(q), 2.5-3x smaller than the robot's
-    bias (equal to 1e-17, tests/test_extended_jacobian.py); with friction the robot's bias is
-    used as is.
-    """
-    s = robot.symbols
-    q, dq = s.q, s.dq
-    NB = s.null_basis.T @ s.actuation  # (n_act, n_act)
-    if robot.friction:
-        bias = s.bias
-    else:
-        gravity = ca.substitute(s.bias, dq, ca.SX.zeros(robot.n))
-        ke = ca.SX(0)  # kinetic energy from body velocities (cheaper than dq^T M dq / 2)
-        for name, pc in robot.tree.com_positions(s.transforms).items():
-            body = robot.tree.bodies[name].inertial
-            ke += 0.5 * body.mass * ca.sumsqr(ca.jtimes(pc, q, dq))
-            if np.any(body.inertia_matrix != 0):
-                R = s.transforms[name][:3, :3]
-                W = ca.jtimes(R, q, dq) @ R.T  # [omega]x in the world frame
-                w = R.T @ ca.vertcat(W[2, 1], W[0, 2], W[1, 0])
-                ke += 0.5 * w.T @ ca.DM(body.inertia_matrix) @ w
-        ke = ca.cse(ke)
-        bias = ca.jtimes(ca.gradient(ke, dq), q, dq) - ca.gradient(ke, q) + gravity
-    T0 = ca.solve(NB, s.null_basis.T @ bias)
-    Tm = ca.solve(NB, s.null_basis.T @ s.mass_matrix)
-    return T0, Tm
