@@ -244,19 +244,32 @@ def test_step_projects_the_velocity_into_ker_a(setup: Setup, generator: Generato
 
 
 def test_chunk_flat_is_the_chunk_plus_e(setup: Setup, generator: Generator) -> None:
+    """chunk_flat = [vec X; vec REC; vec E(q0); vec EFF], EFF = [Tm dq; Tg] at each step's
+    start, checked against the reference ``terms`` (independent of the ``effort`` function)."""
     fns, made = generator
     n = fns.n
     x, par = next(_states(setup, fns, 1))
+    ref_flat = build_chunk_flat(made["ref_chunk"], fns.E, fns.effort)
     pairs = [
-        (build_chunk_flat(made["ref_chunk"], fns.E), made["ref_chunk"], made["ref_record"]),
+        (ref_flat, made["ref_chunk"], made["ref_record"]),
         (made["mmplan_ej_chunk_flat"], made["mmplan_ej_chunk"], made["mmplan_ej_record_step"]),
     ]
     for flat, chunk, record in pairs:
         X, REC = (np.asarray(v) for v in chunk(x, par))
         assert X.shape == (2 * n, CHUNK)
         E0 = np.asarray(fns.E(x[:n], par[:6]))
+        starts = np.column_stack([x, X[:, :-1]])
+        eff = []
+        for col in starts.T:
+            terms = fns.evaluate(col[:n], col[n:], par[:6])
+            eff.append(np.concatenate([terms.Tm @ col[n:], terms.Tg]))
         expected = np.concatenate([X.ravel(order="F"), REC.ravel(order="F"), E0.ravel(order="F")])
-        np.testing.assert_array_equal(np.asarray(flat(np.concatenate([x, par]))).ravel(), expected)
+        got = np.asarray(flat(np.concatenate([x, par]))).ravel()
+        np.testing.assert_array_equal(got[: len(expected)], expected)
+        want = np.concatenate(eff)
+        np.testing.assert_allclose(
+            got[len(expected) :], want, rtol=1e-12, atol=1e-12 * abs(want).max()
+        )
         state = x
         for j in range(3):  # column j: state after step j, record at its start
             nxt, rec = (np.asarray(v).ravel() for v in record(state, par))

@@ -161,9 +161,9 @@ class GeneratorFunctions:
         par = np.concatenate([p, [u, s], ext, [dt]])
         if self.native_chunk is not None:  # ctypes call, no CasADi/DM conversion
             y = self._native_call(np.concatenate([q, dq, par]))
-            n, K = self.n, self.chunk_steps
+            n, K, a = self.n, self.chunk_steps, self.n_act
             X = y[: 2 * n * K].reshape(K, 2 * n)
-            R = y[2 * n * K : len(y) - n * n].reshape(K, -1)
+            R = y[2 * n * K : len(y) - n * n - 2 * a * K].reshape(K, -1)
             return X, R
         X, R = self.chunk(np.concatenate([q, dq]), par)
         return np.asarray(X).T, np.asarray(R).T
@@ -172,8 +172,16 @@ class GeneratorFunctions:
         """E at the first state of the last native ``run_chunk`` call (None otherwise)."""
         if self.native_chunk is None or self._last is None:
             return None
-        n = self.n
-        return self._last[len(self._last) - n * n :].reshape(n, n, order="F")
+        n, end = self.n, len(self._last) - 2 * self.n_act * self.chunk_steps
+        return self._last[end - n * n : end].reshape(n, n, order="F")
+
+    def chunk_effort(self) -> Array | None:
+        """[Tm dq, Tg] (K, 2 n_act) at each step's start of the last native ``run_chunk``
+        call (None otherwise)."""
+        if self.native_chunk is None or self._last is None:
+            return None
+        a, K = self.n_act, self.chunk_steps
+        return self._last[len(self._last) - 2 * a * K :].reshape(K, 2 * a)
 
     def _native_call(self, x: Array) -> Array:
         native = self.native_chunk
@@ -293,7 +301,7 @@ def build_functions(
             terms_c = ca.Function("mmplan_ej_terms_flat", [xt], ca.cse([terms_flat(xt)]))
             effort_c = ca.Function("mmplan_ej_effort", [xe], ca.cse([effort_expr]))
             chunk_c = build_chunk(record_c)
-            flat = build_chunk_flat(chunk_c, E_fn)
+            flat = build_chunk_flat(chunk_c, E_fn, effort_c)
             return [terms_c, step_wrapper(record_c, n), chunk_c, record_c, effort_c, flat]
 
         built = cg.compile_library(make, "ej", CFLAGS, notify, key)

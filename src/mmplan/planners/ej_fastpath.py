@@ -116,6 +116,17 @@ def run(
     if not np.isfinite(cond) or cond > opt.cond_limit or switching:
         return none  # the loop decides at sample k
     states = np.vstack([np.concatenate([q, dq]), X[: m - 1]])
-    rows.add(t[:m], states[:, :n], states[:, n:], ddq[:m], tau[:m], us[:m], ss[:m], err[:m])
+    effort = None if opt.torque_control else fns.chunk_effort()
+    rows.add(
+        t[:m],
+        states[:, :n],
+        states[:, n:],
+        ddq[:m],
+        tau[:m],
+        us[:m],
+        ss[:m],
+        err[:m],
+        None if effort is None else effort[:m],
+    )
     x_m = X[m - 1]
     return Chunk(m, cond, x_m[:n].copy(), x_m[n:].copy(), float(us[m - 1]), float(ss[:m].min()))

@@ -91,6 +91,7 @@ class RolloutResult:
     s: Array
     error: Array
     info: dict[str, Any] = field(default_factory=dict)
+    effort: Array | None = None  # [Tm dq, Tg] (N, 2 n_act) when recorded (time scaling)
 
 
 def _projector(A: Array, winv: Array) -> Array:
@@ -175,7 +176,7 @@ def rollout(
             infeasible_first = t if infeasible_first is None else infeasible_first
         s_min = min(s_min, s) if S > 0.0 else s_min
         ddq, tau = d.ddq, d.tau
-        rows.add_one(t, q, dq, ddq, tau, u, s, err)
+        rows.add_one(t, q, dq, ddq, tau, u, s, err, np.concatenate([out.Tm @ dq, out.Tg]))
         if err < opt.stop_error:
             status, message = Status.REACHED, f"goal reached at t = {t:.3f} s"
             break
@@ -266,6 +267,7 @@ def finish(
         arr["s"],
         arr["err"],
         info,
+        arr.get("effort"),
     )
 
 

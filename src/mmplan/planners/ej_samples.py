@@ -16,13 +16,16 @@ from numpy.typing import ArrayLike, NDArray
 Array = NDArray[np.float64]
 
 KEYS = ("t", "q", "dq", "ddq", "tau", "u", "s", "err")
+#: Optional keys: [Tm dq, Tg] of the effort split at each sample (time scaling, ej_timescale).
+EFFORT = "effort"
 
 
 class SampleLog:
     """Blocks of samples; ``err`` by index (:meth:`error`)."""
 
     def __init__(self, capacity: int) -> None:
-        self._blocks: dict[str, list[Array]] = {k: [] for k in KEYS}
+        self._blocks: dict[str, list[Array]] = {k: [] for k in (*KEYS, EFFORT)}
+        self._effort_complete = True
         self._err = np.empty(max(capacity, 1))
         self.count = 0
 
@@ -39,26 +42,45 @@ class SampleLog:
         u: ArrayLike,
         s: ArrayLike,
         err: ArrayLike,
+        effort: ArrayLike | None = None,
     ) -> None:
-        """Append m samples: t, u, s, err (m,); q, dq, ddq (m, n); tau (m, n_act)."""
+        """Append m samples: t, u, s, err (m,); q, dq, ddq (m, n); tau (m, n_act); effort
+        (m, 2 n_act) when known (else the log has no effort array)."""
         m = len(np.atleast_1d(t))
         for key, value in zip(KEYS, (t, q, dq, ddq, tau, u, s, err), strict=True):
             self._blocks[key].append(np.array(value, dtype=float, copy=True))
+        if effort is None:
+            self._effort_complete = False
+        else:
+            self._blocks[EFFORT].append(np.array(effort, dtype=float, copy=True))
         if self.count + m > len(self._err):
             self._err = np.concatenate([self._err, np.empty(max(m, len(self._err)))])
         self._err[self.count : self.count + m] = err
         self.count += m
 
     def add_one(
-        self, t: float, q: Array, dq: Array, ddq: Array, tau: Array, u: float, s: float, err: float
+        self,
+        t: float,
+        q: Array,
+        dq: Array,
+        ddq: Array,
+        tau: Array,
+        u: float,
+        s: float,
+        err: float,
+        effort: Array | None = None,
     ) -> None:
         """Append one sample."""
-        self.add([t], [q], [dq], [ddq], [tau], [u], [s], [err])
+        self.add(
+            [t], [q], [dq], [ddq], [tau], [u], [s], [err], None if effort is None else [effort]
+        )
 
     def error(self, start: int, stop: int) -> Array:
         """Task errors of samples start .. stop - 1 (a view)."""
         return self._err[start:stop]
 
     def arrays(self) -> dict[str, Array]:
-        """Every key as one array (samples along axis 0)."""
-        return {k: np.concatenate(v, axis=0) for k, v in self._blocks.items()}
+        """Every key as one array (samples along axis 0); ``effort`` only when every sample
+        has it."""
+        keys = [*KEYS, EFFORT] if self._effort_complete and self._blocks[EFFORT] else KEYS
+        return {k: np.concatenate(self._blocks[k], axis=0) for k in keys}

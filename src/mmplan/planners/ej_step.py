@@ -197,17 +197,21 @@ def build_chunk(record_step: ca.Function, steps: int = CHUNK) -> ca.Function:
     return ca.Function("mmplan_ej_chunk", [x0, par], [X, REC], ["x0", "par"], ["X", "rec"])
 
 
-def build_chunk_flat(chunk: ca.Function, E: ca.Function) -> ca.Function:
-    """``chunk_flat([x0; par]) -> [vec(X); vec(REC); vec(E(q0))]``: ``chunk`` with one dense
-    input and output (called through ctypes, ``codegen.NativeFunction``; vec stacks the
-    columns, one step each), and E at the first state for the caller's cond(E) check."""
+def build_chunk_flat(chunk: ca.Function, E: ca.Function, effort: ca.Function) -> ca.Function:
+    """``chunk_flat([x0; par]) -> [vec(X); vec(REC); vec(E(q0)); vec(EFF)]``: ``chunk`` with
+    one dense input and output (called through ctypes, ``codegen.NativeFunction``; vec stacks
+    the columns, one step each), E at the first state for the caller's cond(E) check, and
+    EFF = ``effort`` ([Tm dq; Tg], the time-scaling coefficients) at each step's start."""
     nx, npar = chunk.size1_in(0), chunk.size1_in(1)
     xp = ca.MX.sym("xp", nx + npar)
     x0, par = xp[:nx], xp[nx:]
     X, REC = chunk(x0, par)
     n = nx // 2
     E0 = E(x0[:n], par[:6])
-    out = ca.vertcat(ca.vec(ca.densify(X)), ca.vec(ca.densify(REC)), ca.vec(ca.densify(E0)))
+    K = X.shape[1]
+    starts = ca.horzcat(x0, X[:, : K - 1])
+    eff = effort.map(K)(starts)
+    out = ca.vertcat(*(ca.vec(ca.densify(v)) for v in (X, REC, E0, eff)))
     return ca.Function("mmplan_ej_chunk_flat", [xp], [out])
 
 

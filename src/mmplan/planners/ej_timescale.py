@@ -45,7 +45,11 @@ def rollout_time_scaled(
     free = rollout(
         fns, pfaffian, winv, q0, p_f, dataclasses.replace(opt, torque_control=False), switch
     )
-    beta, g = fns.evaluate_many(free.q, free.dq)  # one call for all samples
+    if free.effort is not None:  # recorded by the compiled chunks
+        a = free.tau.shape[1]
+        beta, g = free.effort[:, :a], free.effort[:, a:]
+    else:
+        beta, g = fns.evaluate_many(free.q, free.dq)  # one call for all samples
     alpha = free.tau - g
     lo, hi = opt.zone
     sc = time_optimal_scaling(free.t, alpha, beta, g, lo, hi)
