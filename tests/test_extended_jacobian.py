@@ -16,11 +16,8 @@ import pytest
 
 from mmplan.errors import InputError
 from mmplan.planners.base import Problem
-from mmplan.planners.extended_jacobian import (
-    ExtendedJacobian,
-    ExtendedJacobianSettings,
-    VirtualControlSettings,
-)
+from mmplan.planners.ej_settings import ExtendedJacobianSettings, VirtualControlSettings
+from mmplan.planners.extended_jacobian import ExtendedJacobian
 from mmplan.robot.library import get_robot
 from mmplan.robot.robot import Limits, Robot
 from mmplan.task import ReachPoint, completion_time
