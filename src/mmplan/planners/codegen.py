@@ -104,6 +104,20 @@ def compile_library(
     return str(library)
 
 
+def compile_function(
+    function: ca.Function, flags: Sequence[str] = ("-O2",)
+) -> tuple[ca.Function, str]:
+    """A C-compiled equivalent of ``function`` (cached library named after it) and the backend
+    used, ``"c"``; ``(function, "vm")`` without a compiler or when compiling fails."""
+    library = compile_library([function], function.name(), flags)
+    if library is None:
+        return function, "vm"
+    try:
+        return load([function.name()], library)[0], "c"
+    except RuntimeError:
+        return function, "vm"
+
+
 def load(names: Sequence[str], library: str) -> list[ca.Function]:
     """The functions ``names`` of a compiled library as ``casadi.external``."""
     return [ca.external(name, library) for name in names]
