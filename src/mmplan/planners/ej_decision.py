@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.planners import virtual_control as vc
-from mmplan.planners.ej_dynamics import Terms
+from mmplan.planners.ej_functions import Terms
 
 if TYPE_CHECKING:
     from mmplan.planners.ej_rollout import RolloutOptions
