@@ -207,7 +207,10 @@ def obstacle_functions(
         fp_in = finish(ins[0], ins[1], fp_in, ins[3])
     push = ca.Function("mmplan_obstacle_push", ins, [fp_in])
     pm = ca.MX.sym("p", N_PARAMS)
-    fp = conditional("mmplan_obstacle_push_if", ca.mmax(near), push, [qm, pm, grad, S_total])
+    if groups and obstacles:
+        fp = conditional("mmplan_obstacle_push_if", ca.mmax(near), push, [qm, pm, grad, S_total])
+    else:  # no collision point or no obstacle: nothing pushes
+        fp = ca.MX.zeros(n)
     terms = ca.Function("mmplan_obstacle_terms", [qm, pm], [varrho * S_total, fp])
     damping = ca.Function("mmplan_obstacle_damping", [qm], [varrho * S_only])
     return terms, damping
