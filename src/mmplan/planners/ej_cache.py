@@ -5,18 +5,20 @@ Building the generator (criterion, symbolic step, loading the compiled library) 
 the obstacle models with their (goal-fitted) neighbourhoods and four settings, not on the
 start or the goal position (p_f is a parameter of the generator), so replanning with the
 same robot object and scene (the use in a control loop) reuses it. The robot is compared
-by identity: a rebuilt robot is a new key. At most ``SIZE`` generators are kept (LRU).
+by identity (held weakly, :mod:`mmplan.planners.model_cache`): a rebuilt robot, or a copy with
+other limits (``Robot.with_limits``: the joint limits enter the criterion), is a new key. At
+most ``SIZE`` generators are kept (LRU).
 """
 
 from __future__ import annotations
 
 import time
-from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mmplan.planners.ej_criterion import Partition, build_criterion
 from mmplan.planners.ej_dynamics import GeneratorFunctions, ObstacleTerm, build_functions
+from mmplan.planners.model_cache import ModelCache
 from mmplan.robot.robot import Robot
 
 SIZE = 8
@@ -31,7 +33,7 @@ class Built:
     cached: bool
 
 
-_CACHE: OrderedDict[tuple[object, ...], tuple[Robot, GeneratorFunctions]] = OrderedDict()
+_CACHE: ModelCache[GeneratorFunctions] = ModelCache(SIZE)
 
 
 def generator(
@@ -44,25 +46,14 @@ def generator(
     codegen: bool,
 ) -> Built:
     """The generator functions of this robot, partition, obstacles and settings (cached)."""
-    key = (
-        id(robot),
-        tuple(partition.R),
-        tuple(obstacles),
-        penalty_weight,
-        varrho,
-        arm_weight,
-        codegen,
-    )
-    hit = _CACHE.get(key)
-    if hit is not None and hit[0] is robot:
-        _CACHE.move_to_end(key)
-        return Built(hit[1], 0.0, True)
+    key = (tuple(partition.R), tuple(obstacles), penalty_weight, varrho, arm_weight, codegen)
+    hit = _CACHE.get(robot, key)
+    if hit is not None:
+        return Built(hit, 0.0, True)
     clock = time.perf_counter()
     crit = build_criterion(robot, partition, penalty_weight)
     fns = build_functions(robot, crit, obstacles, varrho, arm_weight, codegen=codegen)
-    _CACHE[key] = (robot, fns)
-    while len(_CACHE) > SIZE:
-        _CACHE.popitem(last=False)
+    _CACHE.put(robot, key, fns)
     return Built(fns, time.perf_counter() - clock, False)
 
 

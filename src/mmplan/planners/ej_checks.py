@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mmplan.errors import InputError
 from mmplan.planners.ej_dynamics import GeneratorFunctions, ObstacleTerm
+from mmplan.planners.model_cache import ModelCache
 from mmplan.robot.robot import Robot
 
 Array = NDArray[np.float64]
@@ -60,25 +61,22 @@ def check_goal(robot: Robot, p_f: Array, samples: int = 4096) -> None:
         )
 
 
-_REACH: dict[int, tuple[Robot, int, float, float]] = {}
+_REACH: ModelCache[tuple[float, float]] = ModelCache(16)
 
 
 def _vertical_reach(robot: Robot, samples: int) -> tuple[float, float]:
     """Sampled [min, max] end-effector height over the joint limits, +-0.02 m (cached per
     robot object: it does not change between plans)."""
-    hit = _REACH.get(id(robot))
-    if hit is not None and hit[0] is robot and hit[1] == samples:
-        return hit[2], hit[3]
-    rng = np.random.default_rng(0)
-    lo, hi = robot.limits.joint_min, robot.limits.joint_max
-    Q = np.zeros((samples, robot.n))
-    Q[:, list(robot.arm_indices)] = lo + (hi - lo) * rng.random((samples, len(lo)))
-    Z = np.asarray(robot.functions["ee_position"].map(samples)(Q.T), dtype=float)[2]
-    z_lo, z_hi = float(Z.min()) - 0.02, float(Z.max()) + 0.02
-    if len(_REACH) > 16:
-        _REACH.clear()
-    _REACH[id(robot)] = (robot, samples, z_lo, z_hi)
-    return z_lo, z_hi
+
+    def sample() -> tuple[float, float]:
+        rng = np.random.default_rng(0)
+        lo, hi = robot.limits.joint_min, robot.limits.joint_max
+        Q = np.zeros((samples, robot.n))
+        Q[:, list(robot.arm_indices)] = lo + (hi - lo) * rng.random((samples, len(lo)))
+        Z = np.asarray(robot.functions["ee_position"].map(samples)(Q.T), dtype=float)[2]
+        return float(Z.min()) - 0.02, float(Z.max()) + 0.02
+
+    return _REACH.get_or_build(robot, samples, sample)
 
 
 def check_start_clearance(
