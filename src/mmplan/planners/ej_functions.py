@@ -73,15 +73,11 @@ class GeneratorFunctions:
 
     def evaluate_many(self, Q: Array, DQ: Array) -> tuple[Array, Array]:
         """beta = Tm dq and Tg (each (N, n_act)) at N states (rows of Q, DQ), one call of
-        ``effort`` (the coefficients of the time scaling, :mod:`ej_timescale`)."""
+        ``effort`` (the coefficients of the time scaling, :mod:`ej_timescale`, when the
+        compiled chunks did not record them)."""
         N = len(Q)
         X = np.vstack([np.asarray(Q, dtype=float).T, np.asarray(DQ, dtype=float).T])
-        key = f"effort_map{N}"
-        if key not in self.cache:  # building a map costs ~0.5 ms; replans reuse it
-            for old in [k for k in self.cache if k.startswith("effort_map")][8:]:
-                del self.cache[old]
-            self.cache[key] = self.effort.map(N)
-        V = np.asarray(self.cache[key](X))
+        V = np.asarray(self.effort.map(N)(X))
         a = self.n_act
         return np.ascontiguousarray(V[:a].T), np.ascontiguousarray(V[a:].T)
 

@@ -64,7 +64,7 @@ class RolloutOptions:
     rho_min: float = 0.01
     rho_max: float = 10.0
     budget_perturbation: bool = True
-    stall_window: float = 3.0
+    stall_window: float = 1.5
     stall_progress: float = 1e-3
     escape: bool = True
     escape_gain: float = 4.0

@@ -64,8 +64,8 @@ def power_sym(x: ca.SX, a: float) -> ca.SX:
     if half:
         root = ca.sqrt(x)
         out = root if out is None else out * root
-    if out is None:
-        return ca.SX.ones(x.shape) if isinstance(x, ca.SX) else x * 0 + 1
+    if out is None:  # a = 0
+        return 0 * x + 1
     return 1.0 / out if k < 0 else out
 
 
