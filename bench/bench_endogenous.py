@@ -19,9 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
-from mmplan.planners import endogenous_cache
-from mmplan.planners.base import Problem
-from mmplan.planners.endogenous import BoundSetting, EndogenousPlanner, EndogenousSettings
+from mmplan.planners.endogenous import cache as endogenous_cache
+from mmplan.planners.endogenous.planner import BoundSetting, EndogenousPlanner, EndogenousSettings
+from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
 from mmplan.scene.scene import Scene
 from mmplan.task import ReachPoint

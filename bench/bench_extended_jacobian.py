@@ -22,7 +22,7 @@ call, one step of a ``chunk`` call, and the online step a control loop would cal
 Part 3 (``--random N``): N seeded random youbot-3r scenarios (goals in every direction at
 1-4 m, heights 0-0.45 m, 1-4 random cylinders/spheres/boxes near the straight line, with and
 without torque limits), planned through the scenario schema and the real scene; every plan
-that reports ``reached`` is re-verified by :func:`mmplan.check.check`; the others must end
+that reports ``reached`` is re-verified by :func:`mmplan.verify.check.check`; the others must end
 with an honest status. Prints the reached fraction and each failure.
 
 Run: ``python bench/bench_extended_jacobian.py`` (first run compiles C: about 30-60 s a model),
@@ -39,15 +39,16 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from mmplan.planners import ej_cache, ej_rollout
-from mmplan.planners import virtual_control as vc
-from mmplan.planners.ej_criterion import build_criterion, choose_partition
-from mmplan.planners.ej_decision import decide
-from mmplan.planners.ej_dynamics import ObstacleTerm, build_functions
-from mmplan.planners.ej_online import OnlineGenerator
-from mmplan.planners.ej_rollout import RolloutOptions
-from mmplan.planners.extended_jacobian import ExtendedJacobian, ExtendedJacobianSettings
-from mmplan.scenario import load_scenario
+from mmplan.planners.extended_jacobian import cache as ej_cache
+from mmplan.planners.extended_jacobian import rollout as ej_rollout
+from mmplan.planners.extended_jacobian.criterion import build_criterion, choose_partition
+from mmplan.planners.extended_jacobian.generator import ObstacleTerm, build_functions
+from mmplan.planners.extended_jacobian.online import OnlineGenerator
+from mmplan.planners.extended_jacobian.planner import ExtendedJacobian, ExtendedJacobianSettings
+from mmplan.planners.extended_jacobian.rollout import RolloutOptions
+from mmplan.planners.extended_jacobian.torque import virtual_control as vc
+from mmplan.planners.extended_jacobian.torque.decision import decide
+from mmplan.scenario.loader import load_scenario
 from mmplan.task import ReachPoint, completion_time
 from mmplan.trajectory import PlanResult
 
@@ -135,7 +136,8 @@ def plan_scenarios() -> None:
 @contextlib.contextmanager
 def _step_by_step() -> Iterator[None]:
     """Run plans with the rollout's step-by-step loop (no chunks): the baseline."""
-    from mmplan.planners import ej_timescale, extended_jacobian
+    from mmplan.planners.extended_jacobian import planner as extended_jacobian
+    from mmplan.planners.extended_jacobian import time_scaling as ej_timescale
 
     original = ej_rollout.rollout
     slow = functools.partial(original, fast=False)
@@ -324,9 +326,9 @@ def random_scenario(rng: np.random.Generator, index: int) -> dict[str, object]:
 
 def random_scenarios(count: int, seed: int = 7) -> None:
     """Part 3: seeded random scenarios; reached plans must pass the independent check."""
-    from mmplan.check import check
     from mmplan.errors import InputError
-    from mmplan.scenario import Scenario
+    from mmplan.scenario.loader import Scenario
+    from mmplan.verify.check import check
 
     rng = np.random.default_rng(seed)
     tally: dict[str, int] = {}

@@ -4,14 +4,17 @@ Two stages of the ``wall-segment`` problem (SPEC section 7: 31 layers x 22,100 c
 timed both ways in this run:
 
 1. LMA construction: the manipulability distribution of every layer. Vectorized:
-   :func:`mmplan.planners.lma_grid.layer_stack` (one batched IK call a layer). Baselines,
+   :func:`mmplan.planners.manipulability_area.grid.layer_stack` (one batched IK call a layer).
+   Baselines,
    Python loops over layers and cells: (a) the library's IK + w called on one cell at a time
    (the straightforward per-cell implementation; run on ``--loop-layers`` layers, compared
    per cell), (b) a hand-written scalar closed-form IK with ``math`` functions (the same
-   branch as :mod:`mmplan.planners.puma_ik`, early exit on unreachable cells: the strongest
+   branch as :mod:`mmplan.robot.library.base_6dof_ik`, early exit on unreachable cells: the
+   strongest
    pure-Python baseline), on all layers.
 2. Straight-segment search (paper 004 section 4.1, round robin). Vectorized:
-   :func:`mmplan.planners.lma_path.straight_candidates` (FFT pruning of displacements,
+   :func:`mmplan.planners.manipulability_area.path.straight_candidates` (FFT pruning of
+   displacements,
    shifted-mask ANDs). Baselines: (a) a loop over start cells of the bottom layer, NumPy over
    the end cells and layers (must return the same shortest length and pairs); (b) the plain
    per-pair Python loop (every start x end pair, layer by layer), timed on
@@ -31,11 +34,16 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from mmplan.planners import lma_grid, lma_path, puma_ik
-from mmplan.planners.base import Problem
-from mmplan.planners.manipulability_area import ManipulabilityArea, ManipulabilityAreaSettings
-from mmplan.planners.puma_ik import PumaGeometry
+from mmplan.planners.manipulability_area import grid as lma_grid
+from mmplan.planners.manipulability_area import path as lma_path
+from mmplan.planners.manipulability_area.planner import (
+    ManipulabilityArea,
+    ManipulabilityAreaSettings,
+)
+from mmplan.problem import Problem
+from mmplan.robot.library import base_6dof_ik as puma_ik
 from mmplan.robot.library import get_robot
+from mmplan.robot.library.base_6dof_ik import PumaGeometry
 from mmplan.scene import Scene
 from mmplan.task import DrawSegment
 

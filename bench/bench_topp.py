@@ -20,11 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from mmplan.planners import codegen, ej_timescale
-from mmplan.planners.ej_topp import Scaling, reference_scaling, time_optimal_scaling
-from mmplan.planners.ej_topp_passes import passes
-from mmplan.planners.extended_jacobian import ExtendedJacobian
-from mmplan.scenario import load_scenario
+from mmplan.compile import codegen
+from mmplan.planners.extended_jacobian import time_scaling as ej_timescale
+from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
+from mmplan.scenario.loader import load_scenario
+from mmplan.time_scaling.passes import passes
+from mmplan.time_scaling.topp import Scaling, reference_scaling, time_optimal_scaling
 
 REPEAT = 20
 

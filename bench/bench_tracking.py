@@ -17,14 +17,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from mmplan.planners.base import Problem
-from mmplan.planners.impedance import ImpedancePlanner, ImpedanceSettings, VirtualImpedance
-from mmplan.planners.pseudoinverse import (
+from mmplan.planners.tracking.impedance import ImpedancePlanner, ImpedanceSettings, VirtualImpedance
+from mmplan.planners.tracking.pseudoinverse import (
     PseudoinversePlanner,
     PseudoinverseSettings,
     WeightedPseudoinverse,
 )
-from mmplan.planners.tracking_rollout import BufferedStep
+from mmplan.planners.tracking.rollout import BufferedStep
+from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
 from mmplan.scene import Scene, obstacle_from_dict
 from mmplan.task import LinePath

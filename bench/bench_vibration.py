@@ -2,7 +2,8 @@
 
 Plans ``youbot4r-reach`` (plain generator, eq. (12) of 003) and ``youbot4r-reach-smooth``
 (virtual control, eq. (17)) and drives a tip mass on a 3-D spring-damper attached to the
-planned end-effector point (:mod:`mmplan.vibration`) with each plan, for tip modes of 10, 15
+planned end-effector point (:mod:`mmplan.analysis.vibration`) with each plan, for tip modes of 10,
+15
 and 20 Hz and damping ratios 0.02 and 0.05. Prints, per variant: RMS of the vibration
 (deflection) acceleration over the whole motion and over its first second, its peak, the RMS
 and peak of the absolute tip acceleration, the largest spectral amplitude in the 10-20 Hz band,
@@ -15,9 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from mmplan.planners.extended_jacobian import ExtendedJacobian
-from mmplan.scenario import load_scenario
-from mmplan.vibration import VibrationResult, vibration_study
+from mmplan.analysis.vibration import VibrationResult, vibration_study
+from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
+from mmplan.scenario.loader import load_scenario
 
 VARIANTS = ("youbot4r-reach", "youbot4r-reach-smooth")
 MODES = ((10.0, 0.02), (10.0, 0.05), (15.0, 0.02), (15.0, 0.05), (20.0, 0.02), (20.0, 0.05))

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 import mmplan
-from mmplan.planners.ej_dynamics import wheel_metric_inverse
+from mmplan.planners.extended_jacobian.generator import wheel_metric_inverse
 
 
 def main(seconds: float, compiled: bool) -> None:

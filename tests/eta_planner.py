@@ -14,7 +14,8 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from mmplan.planners.base import Planner, PlannerSettings, Problem, Progress, register
+from mmplan.planners.base import Planner, register
+from mmplan.problem import PlannerSettings, Problem, Progress
 from mmplan.trajectory import PlanResult, Status, Trajectory
 
 METHOD = "test-eta"

@@ -21,13 +21,11 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
 
-# ``mmplan.check`` is the function: importing the submodule here first means no later
-# import can rebind the package attribute to the module.
-from mmplan.check import CheckReport, check
 from mmplan.errors import InputError, MmplanError, ModelError, PlanningError, UnknownNameError
+from mmplan.io.plan_folder import read_plan, read_summary, read_trajectory_csv, write_plan
 from mmplan.planners import Planner, PlannerSettings, Problem, get_planner, methods, register
 from mmplan.robot import Limits, Robot, get_robot, robot_names
-from mmplan.scenario import (
+from mmplan.scenario.loader import (
     Scenario,
     ScenarioError,
     builtin_scenarios,
@@ -46,7 +44,10 @@ from mmplan.task import (
     completion_time,
 )
 from mmplan.trajectory import PlanResult, Status, Trajectory
-from mmplan.trajectory_io import read_plan, read_summary, read_trajectory_csv, write_plan
+
+# ``mmplan.check`` is the function: importing the submodule here first means no later
+# import can rebind the package attribute to the module.
+from mmplan.verify.check import CheckReport, check
 
 try:
     __version__ = version("mmplan")

@@ -3,17 +3,15 @@
 from __future__ import annotations
 
 from mmplan.errors import UnknownNameError
+from mmplan.planners.base import Planner, register, registry
 
 # Importing a planner module registers it.
 # (planner modules are added here as they land)
-from mmplan.planners import (
-    endogenous,  # noqa: F401
-    extended_jacobian,  # noqa: F401
-    impedance,  # noqa: F401
-    manipulability_area,  # noqa: F401
-    pseudoinverse,  # noqa: F401
-)
-from mmplan.planners.base import Planner, PlannerSettings, Problem, register, registry
+from mmplan.planners.endogenous import planner as endogenous
+from mmplan.planners.extended_jacobian import planner as extended_jacobian
+from mmplan.planners.manipulability_area import planner as manipulability_area
+from mmplan.planners.tracking import impedance, pseudoinverse
+from mmplan.problem import PlannerSettings, Problem
 
 __all__ = ["Planner", "PlannerSettings", "Problem", "get_planner", "methods", "register"]
 

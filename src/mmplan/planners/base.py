@@ -1,122 +1,19 @@
-"""What every planner shares: settings base class, the planning problem, the registry.
+"""The planner template and the registry of planning methods.
 
-A planner is one module under :mod:`mmplan.planners` that defines a settings model
-(a :class:`PlannerSettings` subclass with a literal ``method``) and a class with
-``plan(problem, progress) -> PlanResult``, and registers it with :func:`register`.
+A method is a subpackage of :mod:`mmplan.planners` whose ``planner.py`` defines a settings
+model (a :class:`~mmplan.problem.PlannerSettings` subclass with a literal ``method``) and a
+:class:`Planner` subclass registered with :func:`register`.
 """
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable
-from dataclasses import dataclass
-from types import UnionType
-from typing import Annotated, Any, ClassVar, Union, get_args, get_origin
+from typing import ClassVar
 
-import numpy as np
-from numpy.typing import NDArray
-from pydantic import (
-    BaseModel,
-    ConfigDict,
-    Field,
-    ValidationInfo,
-    field_validator,
-    model_validator,
-)
-from pydantic_core import PydanticCustomError
-
-from mmplan.robot.robot import Robot
-from mmplan.scene.scene import Scene
-from mmplan.task import Task
+from mmplan.problem import PlannerSettings, Problem, Progress
 from mmplan.trajectory import PlanResult
 
-#: Called with the fraction done (0..1) while planning; may be None.
-Progress = Callable[[float], None] | None
-
-
-#: Most integration steps a fixed-step planner may be asked for (t_max / dt): the work bound
-#: that turns an absurd ``dt`` into an input error instead of a hang or a MemoryError.
-MAX_STEPS = 2_000_000
-
-
-class PlannerSettings(BaseModel):
-    """Settings every method accepts; a method's model adds its own fields.
-
-    Unknown keys are errors (``extra="forbid"``), values are validated on construction.
-    Numeric settings take numbers only (no booleans or strings), and a method with a fixed
-    step ``dt`` is limited to ``t_max / dt <= MAX_STEPS``.
-    """
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    method: str
-
-    @field_validator("*", mode="before")
-    @classmethod
-    def _numbers_are_numbers(cls, value: Any, info: ValidationInfo) -> Any:
-        """A numeric setting takes numbers only: no ``true`` for 1, no ``"20"`` for 20."""
-        if info.field_name is None or info.field_name not in cls.model_fields:
-            return value
-        allowed = _leaf_types(cls.model_fields[info.field_name].annotation)
-        if not allowed or not allowed <= {int, float, type(None)}:
-            return value  # not a purely numeric setting: its own validation applies
-        items = value if isinstance(value, list | tuple) else [value]
-        for item in items:
-            if isinstance(item, bool | str):
-                raise ValueError(f"expected a number, got {item!r}")
-        return value
-    t_max: float = Field(
-        120.0,
-        gt=0,
-        allow_inf_nan=False,
-        description="simulated seconds (or iterations budget) before giving up",
-    )
-
-    @model_validator(mode="after")
-    def _bounded_work(self) -> PlannerSettings:
-        """A fixed-step method (a ``dt`` setting) runs at most ``MAX_STEPS`` steps."""
-        dt = getattr(self, "dt", None)
-        if isinstance(dt, float) and dt > 0 and math.isfinite(self.t_max):
-            steps = self.t_max / dt
-            if steps > MAX_STEPS:
-                raise PydanticCustomError(
-                    "scenario",
-                    f"t_max / dt = {self.t_max:g} / {dt:g} = {steps:.3g} steps exceeds the limit "
-                    f"{MAX_STEPS:.0e}; use a larger dt or a smaller t_max",
-                    {"key": "dt"},
-                )
-        return self
-
-
-def _leaf_types(annotation: Any) -> set[Any]:
-    """The non-container types an annotation admits (``tuple[float, ...] | None`` ->
-    {float, NoneType}); an empty set when it holds anything else (models, literals)."""
-    origin = get_origin(annotation)
-    if origin is None:
-        return {annotation} if isinstance(annotation, type) else set()
-    if origin is Annotated:
-        return _leaf_types(get_args(annotation)[0])
-    out: set[Any] = set()
-    for arg in get_args(annotation):
-        if arg is Ellipsis:
-            continue
-        leaves = _leaf_types(arg)
-        if not leaves:
-            return set()
-        out |= leaves
-    return out if origin in (Union, UnionType, tuple, list) else set()
-
-
-@dataclass(frozen=True)
-class Problem:
-    """A fully resolved planning problem: robot (with limits), scene, task, start, settings."""
-
-    robot: Robot
-    scene: Scene
-    task: Task
-    start: NDArray[np.float64]
-    settings: PlannerSettings
+__all__ = ["Planner", "PlannerSettings", "Problem", "Progress", "register", "registry"]
 
 
 class Planner(ABC):

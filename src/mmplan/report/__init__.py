@@ -44,7 +44,7 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000) -> Path:
 def check_failures(plan_dir: str | Path) -> list[str]:
     """What ``mmplan check DIR`` would report as failed (empty when it passes or cannot run)."""
     import mmplan
-    from mmplan.check_summary import summary_disagreements
+    from mmplan.verify.summary import summary_disagreements
 
     try:
         trajectory, sc = mmplan.read_plan(plan_dir)

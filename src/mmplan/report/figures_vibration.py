@@ -1,6 +1,6 @@
 """Tip-vibration figure (paper 003 Figs. 8, 9): acceleration spectrum and its time series.
 
-Drawn from the arrays :func:`mmplan.vibration.vibration_artifacts` writes to artifacts.npz:
+Drawn from the arrays :func:`mmplan.analysis.vibration.vibration_artifacts` writes to artifacts.npz:
 ``vibration_freq_hz`` (F,) with ``vibration_amplitude`` (F,) (root-sum-square over the axes)
 and/or ``vibration_amplitude_x/_y/_z``; optionally ``vibration_time_s`` with
 ``vibration_acceleration_norm`` (the time series) and ``vibration_rms`` (shown in the title).

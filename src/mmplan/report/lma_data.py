@@ -1,6 +1,7 @@
 """Manipulability-area data of a plan (artifacts.npz of the manipulability-area planner).
 
-Reads and checks the arrays the planner writes (``mmplan.planners.lma_result``): the base grid
+Reads and checks the arrays the planner writes (``mmplan.planners.manipulability_area.result``):
+the base grid
 axes, the manipulability distribution of the first and last layer, the stack of MA masks
 (layers, nx, ny), the base path per layer and the threshold. The figures of 004 (Figs. 3, 4,
 5, 8) are drawn from this record by :mod:`mmplan.report.figures_lma`.

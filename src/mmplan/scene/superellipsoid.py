@@ -45,7 +45,7 @@ def power_sym(x: ca.SX, a: float) -> ca.SX:
 
     Same value to rounding; the derivatives CasADi forms are then products too. Measured on
     the generator of youbot3r-obstacles (exponents 0.1 and 1, so powers 10, 1 and -0.5):
-    see :mod:`mmplan.planners.ej_dynamics`.
+    see :mod:`mmplan.planners.extended_jacobian.generator`.
     """
     twice = 2.0 * a
     if abs(twice - round(twice)) > 1e-12 or abs(a) > 32:

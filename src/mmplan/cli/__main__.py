@@ -1,0 +1,5 @@
+"""``python -m mmplan.cli``."""
+
+from mmplan.cli.main import main
+
+main()

@@ -1,0 +1,286 @@
+"""The ``mmplan`` command: list robots and scenarios, plan a scenario, check a written plan.
+
+A thin layer over the public API. No traceback reaches the user: an
+:class:`~mmplan.errors.MmplanError` prints ``error: <one line>`` and exits with its code
+(2 bad input, 3 planning failed); anything else exits 1 with a hint to report it.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import NoReturn
+
+import click
+from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+import mmplan
+from mmplan.cli.output import ProgressBar as _Bar
+from mmplan.cli.output import err, out, print_check, print_plan
+from mmplan.errors import MmplanError
+
+ISSUES_HINT = "this is a bug in mmplan; please report it with the command you ran"
+
+
+
+def _fail(message: str, code: int) -> NoReturn:
+    err.print(f"error: {message}", markup=False, soft_wrap=True)
+    raise SystemExit(code)
+
+
+@contextmanager
+def _user_errors() -> Iterator[None]:
+    """Turn every exception into one line on stderr and an exit code."""
+    try:
+        yield
+    except MmplanError as exc:
+        _fail(str(exc), exc.exit_code)
+    except KeyboardInterrupt:
+        _fail("interrupted", 130)
+    except (SystemExit, click.exceptions.Exit, click.ClickException):
+        raise
+    except Exception as exc:
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        _fail(f"internal error: {type(exc).__name__}: {first} ({ISSUES_HINT})", 1)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(mmplan.__version__, prog_name="mmplan")
+def main() -> None:
+    """Whole-body trajectory planning for mobile manipulators.
+
+    \b
+    Typical session:
+      mmplan robots                                  # built-in robots
+      mmplan scenarios                               # built-in scenarios
+      mmplan plan youbot3r-obstacles --out run1      # plan, write run1/
+      mmplan check run1                              # re-verify run1/ independently
+      mmplan report run1                             # run1/report.html (figures, 3D)
+      mmplan reproduce --out repro                   # all paper examples vs the papers
+
+    A scenario is a built-in name or a YAML file (see SPEC section 8). Exit codes:
+    0 success, 2 bad input, 3 planned but the task was not reached / check failed,
+    1 internal error.
+    """
+
+
+@main.command()
+def robots() -> None:
+    """List the built-in robots (name, n coordinates, h constraints, coordinates)."""
+    with _user_errors():
+        table = Table("robot", "n", "h", "coordinates", "description")
+        for name in mmplan.robot_names():
+            r = mmplan.get_robot(name)
+            table.add_row(name, str(r.n), str(r.h), " ".join(r.coordinates), r.description)
+        out.print(table)
+
+
+@main.command()
+def scenarios() -> None:
+    """List the built-in scenarios (robot, planning method, whether the method is installed)."""
+    with _user_errors():
+        table = Table("scenario", "robot", "method", "available")
+        available = set(mmplan.methods())
+        for name, path in mmplan.builtin_scenarios().items():
+            try:
+                robot, method = mmplan.scenario_header(path)
+            except mmplan.InputError as exc:
+                table.add_row(name, "?", "?", f"invalid file: {exc.problem}")
+                continue
+            table.add_row(name, robot, method, "yes" if method in available else "no")
+        out.print(table)
+
+
+@main.command()
+@click.argument("scenario")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Directory to write (replaced atomically if it exists).")
+@click.option("--format", "fmt", type=click.Choice(["csv", "npz"]), default="csv",
+              show_default=True, help="npz also writes trajectory.npz next to trajectory.csv.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar and no metrics; exit code only.")
+@click.option("--report", "with_report", is_flag=True,
+              help="Also write OUT/report.html (figures and 3D animation; needs mmplan[report]).")
+def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool) -> None:
+    """Plan SCENARIO (a built-in name or a YAML file) and write the plan to --out.
+
+    Writes OUT/trajectory.csv (one row per sample), OUT/summary.json (status and metrics
+    recomputed by the independent checker) and OUT/scenario.yaml (the scenario with every
+    default filled in).
+
+    The plan is re-verified by the same independent checks as `mmplan check`; a failed
+    check is printed (FAIL ...) and recorded in summary.json (check_passed: false,
+    check_failures), status keeps what the planner said. --out must be a new folder, an
+    empty one or an earlier plan folder (anything else is never replaced).
+
+    Examples:
+
+    \b
+      mmplan plan youbot3r-obstacles --out runs/youbot
+      mmplan plan my_scenario.yaml --out runs/mine --format npz
+      mmplan plan wall-segment --out runs/wall --report   # + runs/wall/report.html
+
+    A minimal scenario file (start lists the coordinates shown by `mmplan robots`):
+
+    \b
+      name: my-reach
+      robot: youbot-3r
+      start: [0, 0, 0, 0, 0, 0, -0.17, 0.35]
+      goal: {position: [1.5, 0.5, 0.3], tolerance: 0.001}
+      obstacles:
+        - {shape: sphere, center: [1.0, 0.3, 0.4], radius: 0.1}
+      planner: {method: extended-jacobian, t_max: 60}
+
+    Exit code 0 when the task was reached and every check holds, 3 when planning ended
+    without reaching it (summary.json says why) or a check failed, 2 for bad input.
+    """
+    with _user_errors():
+        from mmplan.io.plan_folder import check_out_dir
+
+        if Path(scenario).is_dir():
+            raise mmplan.InputError("SCENARIO", f"{scenario} is a directory; give a scenario "
+                                    "file or a built-in name (`mmplan scenarios`)")
+        sc = mmplan.load_scenario(scenario)
+        check_out_dir(out_dir)  # before planning: refuse a folder we would not replace
+        problem = sc.build()
+        planner = mmplan.get_planner(sc.method)()
+        bar = _Bar(enabled=not quiet and err.is_terminal)  # no bar (nor its newline) in logs
+        try:
+            result = planner.plan(problem, progress=bar)
+        except mmplan.ScenarioError:
+            raise
+        except mmplan.InputError as exc:  # a planner's own check of the scenario: name the file
+            raise mmplan.ScenarioError(sc.source, exc.field, exc.problem) from None
+        finally:
+            bar.close()
+        written = mmplan.write_plan(out_dir, result, problem, sc, fmt=fmt)
+        summary = mmplan.read_summary(written)
+        if not quiet:
+            print_plan(result, summary, written)
+        failures = [str(f) for f in summary.get("check_failures", [])]
+        for line in failures:
+            err.print(f"FAIL {line}", markup=False, soft_wrap=True)
+        if with_report:
+            from mmplan.report import write_report  # optional extra: imported only here
+
+            page = write_report(written)
+            if not quiet:
+                out.print(f"report: {page}", markup=False)
+        if not result.reached or failures:
+            raise SystemExit(3)
+
+
+@main.command(name="check")
+@click.argument("directory", type=click.Path(path_type=Path))
+def check_cmd(directory: Path) -> None:
+    """Re-verify the plan in DIRECTORY independently of the planner that made it.
+
+    Recomputes from q alone: end effector by forward kinematics, clearance to the original
+    obstacles by exact geometry, joint and torque limits, Pfaffian residual |A(q) dq|,
+    dq against q, completion times T(1 cm), T(1 mm); checks that the status in
+    summary.json agrees with the task error and that every SPEC number in summary.json
+    agrees with the recomputed one (relative 1e-6). Example:
+
+    \b
+      mmplan check runs/youbot
+
+    Exit code 0 when every check holds, 3 naming each failed check, 2 on unreadable input.
+    """
+    with _user_errors():
+        from mmplan.verify.summary import summary_disagreements
+
+        if directory.exists() and not directory.is_dir():
+            raise mmplan.InputError(str(directory), "is a file; give a plan directory "
+                                    "(written by mmplan plan --out DIR)")
+        trajectory, sc = mmplan.read_plan(directory)
+        claimed = mmplan.read_summary(directory)
+        status = claimed.get("status")
+        report = mmplan.check(trajectory, sc.build(),
+                              status=None if status is None else str(status))
+        print_check(report)
+        failures = report.failures() + summary_disagreements(claimed, report, sc.method)
+        for line in failures:
+            err.print(f"FAIL {line}", markup=False, soft_wrap=True)
+        if failures:
+            raise SystemExit(3)
+        out.print("check passed", markup=False)
+
+
+@main.command()
+@click.argument("plan_dir", type=click.Path(path_type=Path))
+def report(plan_dir: Path) -> None:
+    """Write PLAN_DIR/report.html and PLAN_DIR/figures/*.png for a written plan.
+
+    One self-contained HTML file (opens offline): summary table, the papers' figures for the
+    planner used and a 3D animation of the robot among the obstacles. Needs the optional
+    report extra (pip install 'mmplan[report]'). Example:
+
+    \b
+      mmplan plan youbot4r-reach --out runs/y4 && mmplan report runs/y4
+
+    Exit code 0 when written, 2 when PLAN_DIR is not a readable plan directory.
+    """
+    with _user_errors():
+        from mmplan.report import render_report_cli  # optional extra: imported only here
+
+        render_report_cli(plan_dir)
+
+
+@main.command(name="reproduce")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for the runs (OUT/<scenario>/) and the tables.")
+@click.option("--only", multiple=True, metavar="NAME",
+              help="Run only these scenarios (repeatable, comma lists; further NAMES as "
+                   "arguments); variants come with their scenario.")
+@click.option("--no-report", is_flag=True, help="Skip the per-scenario report.html (faster).")
+@click.argument("names", nargs=-1, metavar="[NAME]...")
+def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool,
+                  names: tuple[str, ...]) -> None:
+    """Plan every built-in paper scenario and compare our numbers with the papers'.
+
+    Writes OUT/<scenario>/ (plan and report.html) for each scenario of SPEC section 8 (and
+    the switched-off variants the references compare against), then OUT/REPRODUCTION.md and
+    OUT/reproduction.html: paper figure | quantity | paper | ours | difference | verdict for
+    every number the papers publish and SPEC's reference numbers, each linked to its report.
+    Examples:
+
+    \b
+      mmplan reproduce --out repro
+      mmplan reproduce --out repro --only car-rtr-free wall-segment --no-report
+
+    Exit code 0 when every scenario reached its task (even if a number differs), 3 when a
+    scenario failed to plan (its row says why), 2 for bad input.
+    """
+    with _user_errors():
+        from mmplan.reproduce.run import reproduce, run_specs
+
+        selected = (*only, *names)
+        total = len(run_specs(selected))  # validates the names before any work
+        with Progress(TextColumn("{task.description:<36}"), BarColumn(), TaskProgressColumn(),
+                      TimeElapsedColumn(), console=err, transient=True,
+                      disable=not err.is_terminal) as bar:
+            task = bar.add_task("reproduce", total=total)
+
+            def progress(name: str, done: float, count: int) -> None:
+                bar.update(task, description=name, completed=done)
+
+            result = reproduce(out_dir, selected, report=not no_report, progress=progress)
+        for run in result.runs:
+            mark = ("ok  " if run.status == "reached"
+                    else "FAIL" if run.spec.base is None else "    ")
+            out.print(f"{mark} {run.spec.name:36s} {run.status:10s} {run.wall_time_s:6.1f} s"
+                      + (f"  (report: {run.report_error})" if run.report_error else ""),
+                      markup=False)
+        verdicts = [row.verdict.split(" (")[0] for row in result.rows]
+        counts = ", ".join(f"{v} {verdicts.count(v)}" for v in sorted(set(verdicts)))
+        out.print(f"{len(result.rows)} numbers compared ({counts}) in {result.wall_time_s:.0f} s",
+                  markup=False)
+        out.print(f"wrote {result.markdown} and {result.html}", markup=False)
+        if result.failed:
+            raise SystemExit(3)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

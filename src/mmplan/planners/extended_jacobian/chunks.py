@@ -1,0 +1,134 @@
+"""Chunked fast path of the extended-Jacobian rollout (speed; same samples as the loop).
+
+Without torque control (u = s = 1) and outside an escape push (ext = 0) nothing is decided
+between steps except the stop tests, so ``chunk_steps`` steps run in one compiled call
+(:func:`mmplan.planners.extended_jacobian.generator.GeneratorFunctions.run_chunk`); with torque
+control in
+feedback mode the choice of s and u runs inside the chunk too (:mod:`ej_feedback`). The
+caller's loop (:func:`mmplan.planners.extended_jacobian.rollout.rollout`) keeps every other
+decision:
+:func:`run` accepts the samples before the first one at which the loop would do anything
+else (NaN, goal reached, stall verdict, cond(E) above the switch threshold, an infeasible
+virtual-control choice) and the loop handles that sample itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
+from mmplan.planners.extended_jacobian.samples import SampleLog
+from mmplan.planners.extended_jacobian.torque import feedback as ej_feedback
+
+if TYPE_CHECKING:
+    from mmplan.planners.extended_jacobian.rollout import RolloutOptions
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class StallClock:
+    """What the stall verdict of the loop needs: window [steps], escapes so far, escape end."""
+
+    window: int
+    escapes: int
+    escape_until: float
+
+
+def usable(fns: GeneratorFunctions, opt: RolloutOptions, k: int, steps: int, t_free: bool) -> bool:
+    """True when samples k .. k + chunk_steps - 1 may run as one chunk.
+
+    Args:
+        t_free: No escape push acts at sample k (nor later, as time grows).
+    """
+    K = fns.chunk_steps
+    feedback = opt.torque_control and fns.record is not None
+    return (
+        fns.chunk is not None
+        and (feedback or not opt.torque_control)
+        and opt.cond_every == K
+        and k % K == 0
+        and k + K <= steps
+        and t_free
+    )
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """Outcome of :func:`run`: accepted samples m, cond(E) at the first, the state at k + m,
+    the virtual control u of the last accepted sample and the smallest perturbation scale."""
+
+    m: int
+    cond: float
+    q: Array
+    dq: Array
+    u: float
+    s_min: float
+
+
+def run(
+    fns: GeneratorFunctions,
+    q: Array,
+    dq: Array,
+    u: float,
+    p: Array,
+    k: int,
+    opt: RolloutOptions,
+    clock: StallClock,
+    rows: SampleLog,
+    switch_possible: bool,
+) -> Chunk:
+    """Run one chunk from sample k (virtual control u so far); append accepted samples to rows."""
+    n, a, dt = fns.n, fns.n_act, opt.dt
+    if opt.torque_control:
+        chunk = ej_feedback.feedback_chunk(fns, opt)
+        assert chunk is not None
+        x0 = np.concatenate([q, dq, [u, 1.0 if k == 0 else 0.0]])
+        XU, RU = (np.asarray(v).T for v in chunk(x0, np.concatenate([p, [dt]])))
+        X, R, us, ss, ok = XU[:, : 2 * n], RU, RU[:, n + a + 2], RU[:, n + a + 3], RU[:, -1]
+    else:
+        X, R = fns.run_chunk(q, dq, 1.0, 1.0, np.zeros(n), p, dt)
+        us = ss = ok = np.ones(len(R))
+    ddq, tau, err, flag = R[:, :n], R[:, n : n + a], R[:, n + a], R[:, n + a + 1]
+    K = len(err)
+    kk = k + np.arange(K)
+    t = kk * dt
+    event = ~np.isfinite(flag) | ~np.all(np.isfinite(X), axis=1) | (err < opt.stop_error)
+    event |= ok < 0.5
+    history = rows.error(max(0, k - clock.window), k)
+    older = np.concatenate([history, err])  # err at sample kk - window, where kk >= window
+    idx = kk - clock.window - max(0, k - clock.window)
+    wait = clock.escape_until + (opt.stall_window if clock.escapes else 0.0)
+    due = (kk >= clock.window) & (t >= wait)
+    prev = np.where(due, older[np.clip(idx, 0, len(older) - 1)], np.inf)
+    event |= due & (prev - err < opt.stall_progress)
+    m = int(np.argmax(event)) if event.any() else K
+    none = Chunk(0, 0.0, q, dq, u, 1.0)
+    if m == 0:
+        return none
+    E0 = fns.chunk_start_E() if not opt.torque_control else None
+    if E0 is None:
+        E0 = np.asarray(fns.E(q, p), dtype=float)
+    cond = float(np.linalg.cond(E0))
+    switching = switch_possible and cond > opt.switch_cond
+    if not np.isfinite(cond) or cond > opt.cond_limit or switching:
+        return none  # the loop decides at sample k
+    states = np.vstack([np.concatenate([q, dq]), X[: m - 1]])
+    effort = None if opt.torque_control else fns.chunk_effort()
+    rows.add(
+        t[:m],
+        states[:, :n],
+        states[:, n:],
+        ddq[:m],
+        tau[:m],
+        us[:m],
+        ss[:m],
+        err[:m],
+        None if effort is None else effort[:m],
+    )
+    x_m = X[m - 1]
+    return Chunk(m, cond, x_m[:n].copy(), x_m[n:].copy(), float(us[m - 1]), float(ss[:m].min()))

@@ -1,0 +1,219 @@
+r"""Symbolic core of the extended-Jacobian generator (papers 000 and 003, SPEC section 3).
+
+Everything here is a CasADi SX expression in the robot's symbols ``q`` (n,), ``dq`` (n,)
+and a goal parameter ``p_f`` (3,); derivatives come from CasADi AD, never by hand.
+
+* Criterion, eq. (9) of 000 / (8) of 003:
+  :math:`H(q) = -\mu(q_a) + \sum_i w/(q_i - q_{i,min}) + w/(q_{i,max} - q_i)` over the arm
+  joints (SPEC pitfall: the penalty acts over the whole range, otherwise q1 is undetermined
+  because mu does not depend on it and E is singular at the goal).
+* Transversality, eq. (11) of 000 / (9) of 003, with the stacked Jacobian Jc = [J; A]
+  (m+h, n) split into columns R (m+h) and F (n-m-h):
+  :math:`g(q) = H_F - (Jc_R^{-1} Jc_F)^T H_R`; by default in the cheaper equal form of
+  :mod:`mmplan.planners.extended_jacobian.structure` (3-4x fewer operations in the compiled step),
+  the
+  symbolic (m+h) solve with the robot's mu being the reference (``structured=False``).
+* Errors e_I = [k(q) - p_f; g(q)] (n-h,), e_II = A(q) dq (h,).
+* E = [de_I/dq; A] (n, n), v1 = [d/dt(de_I/dq) dq; d/dt(A) dq],
+  v2 = [Lambda_V de_I/dq dq + Lambda_P e_I; Lambda_II A dq], so that eq. (16) / (12) reads
+  ddq = -E^{-1}(v1 + v2).
+
+Partition rule (SPEC pitfall: R must not contain the whole arm Jacobian): R holds every
+platform coordinate (the wheel angles make A's columns invertible) plus the
+m + h - n_platform arm joints whose choice gives the best-conditioned Jc_R at the start
+q0; ties go to the earlier joint. For youbot-3r this selects R = {x, y, theta, phi1, phi2, q2}
+and F = {q1, q3} as in SPEC.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+
+from mmplan.errors import InputError
+from mmplan.planners.extended_jacobian.structure import (
+    reduced_manipulability,
+    structured_transversality,
+)
+from mmplan.robot.robot import Robot
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Partition:
+    """Column partition of Jc = [J; A]: indices of R (m+h,) and F (n-m-h,), robot order."""
+
+    R: tuple[int, ...]
+    F: tuple[int, ...]
+
+    def names(self, robot: Robot) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """Coordinate names of R and F."""
+        return tuple(robot.coordinates[i] for i in self.R), tuple(
+            robot.coordinates[i] for i in self.F
+        )
+
+
+def stacked_jacobian(robot: Robot, q: Array) -> Array:
+    """Jc(q) = [J(q); A(q)], (3 + h, n)."""
+    return np.vstack([robot.jacobian(q), robot.pfaffian(q)])
+
+
+def choose_partition(robot: Robot, q0: Array) -> Partition:
+    """Partition rule of this module: platform coordinates plus the best arm joints in R.
+
+    Raises:
+        InputError: no choice gives an invertible Jc_R at ``q0`` (start at a singularity).
+    """
+    n, m, h = robot.n, 3, robot.h
+    n_r = m + h
+    platform = tuple(range(robot.n_platform))
+    extra = n_r - len(platform)
+    if extra < 0 or extra > len(robot.arm_indices):
+        raise InputError("robot", f"{robot.name}: cannot partition {n} columns into R of {n_r}")
+    Jc = stacked_jacobian(robot, q0)
+    best: tuple[float, tuple[int, ...]] | None = None
+    for arm in itertools.combinations(robot.arm_indices, extra):
+        R = platform + arm
+        cond = float(np.linalg.cond(Jc[:, list(R)]))
+        if np.isfinite(cond) and (best is None or cond < 0.999 * best[0]):
+            best = (cond, R)
+    if best is None or best[0] > 1e10:
+        raise InputError(
+            "start", f"Jc_R is singular at the start for every partition of {robot.name}"
+        )
+    R = best[1]
+    return Partition(R, tuple(i for i in range(n) if i not in R))
+
+
+def repartition(robot: Robot, q: Array, current: Partition) -> Partition | None:
+    """Best-conditioned Jc_R over all column choices at q, if 10x better than ``current``.
+
+    Used when cond(E) grows along a run (e.g. youbot-3r with the end effector sideways of
+    the platform centre, where every R holding all platform columns is singular). The zero
+    set of g, and with it the planned optimum, does not depend on the partition (eq. (11)).
+    """
+    Jc = stacked_jacobian(robot, q)
+    n_r = Jc.shape[0]
+    now = float(np.linalg.cond(Jc[:, list(current.R)]))
+    best: tuple[float, tuple[int, ...]] | None = None
+    for R in itertools.combinations(range(robot.n), n_r):
+        cond = float(np.linalg.cond(Jc[:, list(R)]))
+        if np.isfinite(cond) and (best is None or cond < best[0]):
+            best = (cond, R)
+    if best is None or not best[0] < 0.1 * now:
+        return None
+    return Partition(best[1], tuple(i for i in range(robot.n) if i not in best[1]))
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """Symbolic generator quantities (SX) of one robot, partition and penalty weight.
+
+    Attributes:
+        q, dq, p_f: Symbols (n,), (n,), (3,).
+        H: Criterion (1,). g: Transversality (n-m-h,). e_I: Task error (n-h,).
+        De: de_I/dq (n-h, n). E: [De; A] (n, n). v1: (n,). v2_parts: (De dq, e_I, A dq),
+            so v2 = [Lambda_V De dq + Lambda_P e_I; Lambda_II A dq].
+    """
+
+    q: ca.SX
+    dq: ca.SX
+    p_f: ca.SX
+    H: ca.SX
+    g: ca.SX
+    e_I: ca.SX  # noqa: N815
+    De: ca.SX
+    E: ca.SX
+    v1: ca.SX
+    de_I: ca.SX  # noqa: N815
+    e_II: ca.SX  # noqa: N815
+
+
+def joint_limit_penalty(q_arm: ca.SX, q_min: Array, q_max: Array, weight: float) -> ca.SX:
+    """sum_i w/(q_i - q_min,i) + w/(q_max,i - q_i) over the arm joints (SPEC section 3)."""
+    terms = [
+        weight / (q_arm[i] - q_min[i]) + weight / (q_max[i] - q_arm[i])
+        for i in range(q_arm.numel())
+    ]
+    return ca.sum1(ca.vertcat(*terms))
+
+
+def build_criterion(
+    robot: Robot, partition: Partition, weight: float = 0.01, structured: bool = True
+) -> Criterion:
+    """Build H, g, e_I, E, v1 for ``robot`` (eqs. (9)-(16) of 000).
+
+    With ``structured`` (default) mu and g take the cheaper equal forms of
+    :mod:`mmplan.planners.extended_jacobian.structure` (same values up to rounding, checked at two
+    seeded
+    states; 3-10x fewer operations in g, E and v1); ``structured=False`` is the
+    straightforward reference: mu from the robot and g with the symbolic (m+h) solve.
+    """
+    s = robot.symbols
+    q, dq = s.q, s.dq
+    p_f = ca.SX.sym("p_f", 3)
+    q_arm = q[list(robot.arm_indices)]
+    penalty = joint_limit_penalty(q_arm, robot.limits.joint_min, robot.limits.joint_max, weight)
+    H = -s.manipulability + penalty
+    g = reference_transversality(robot, partition, H)
+    if structured:
+        H_red = -reduced_manipulability(robot) + penalty
+        g_red = structured_transversality(robot, partition.R, partition.F, ca.gradient(H_red, q))
+        if g_red is None:  # R without every platform column: the solve, with the cheaper mu
+            g_red = reference_transversality(robot, partition, H_red)
+        if _agree(q, g, g_red, robot):
+            H, g = H_red, ca.cse(g_red)
+    e_I = ca.vertcat(s.ee_position - p_f, g)
+    De = ca.jacobian(e_I, q)
+    A = s.pfaffian
+    E = ca.vertcat(De, A)
+    de_I = De @ dq
+    e_II = A @ dq
+    v1 = ca.vertcat(ca.jacobian(de_I, q) @ dq, ca.jacobian(e_II, q) @ dq)
+    return Criterion(q, dq, p_f, H, g, e_I, De, E, v1, de_I, e_II)
+
+
+def reference_transversality(robot: Robot, partition: Partition, H: ca.SX) -> ca.SX:
+    """g = H_F - (Jc_R^-1 Jc_F)^T H_R (eq. (11) of 000) with a symbolic solve (reference)."""
+    s = robot.symbols
+    Hq = ca.gradient(H, s.q)
+    Jc = ca.vertcat(s.jacobian, s.pfaffian)
+    R, F = list(partition.R), list(partition.F)
+    X = ca.solve(Jc[:, R], Jc[:, F])  # Jc_R^-1 Jc_F, (m+h, n-m-h)
+    return Hq[F] - X.T @ Hq[R]
+
+
+def _agree(q: ca.SX, g: ca.SX, g_red: ca.SX, robot: Robot, states: int = 2) -> bool:
+    """Guard: the structured g equals the reference at a few seeded random states."""
+    fn = ca.Function("g_check", [q], [g, g_red])
+    rng = np.random.default_rng(0)
+    lo = np.where(np.isfinite(robot.limits.joint_min), robot.limits.joint_min, -np.pi)
+    hi = np.where(np.isfinite(robot.limits.joint_max), robot.limits.joint_max, np.pi)
+    for _ in range(states):
+        x = rng.uniform(-1.0, 1.0, robot.n)
+        x[list(robot.arm_indices)] = lo + (hi - lo) * rng.uniform(0.2, 0.8, len(lo))
+        ref, red = (np.asarray(v, dtype=float).ravel() for v in fn(x))
+        if not np.allclose(red, ref, rtol=1e-8, atol=1e-8 * max(1.0, float(np.abs(ref).max()))):
+            return False
+    return True
+
+
+def generator_terms(crit: Criterion, gains: Sequence[float], h: int) -> tuple[ca.SX, ca.SX]:
+    """Drift and feedback parts of eq. (16): ddq = f0 + u fv with f0 = -E^-1 v1, fv = -E^-1 v2.
+
+    Args:
+        crit: Symbolic criterion.
+        gains: (Lambda_P, Lambda_V, Lambda_II) scalars (or SX symbols).
+        h: Number of Pfaffian rows.
+    """
+    lam_p, lam_v, lam_ii = gains
+    v2 = ca.vertcat(lam_v * crit.de_I + lam_p * crit.e_I, lam_ii * crit.e_II)
+    f0 = -ca.solve(crit.E, crit.v1)
+    fv = -ca.solve(crit.E, v2)
+    return f0, fv

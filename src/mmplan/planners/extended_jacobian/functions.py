@@ -1,0 +1,130 @@
+"""The compiled extended-Jacobian generator as Python sees it: :class:`GeneratorFunctions`.
+
+Built by :func:`mmplan.planners.extended_jacobian.generator.build_functions` (which documents every
+function);
+here are the NumPy-facing calls: one sample's terms, the time-scaling coefficients at many
+samples, one step, and a chunk of steps (through ctypes when compiled).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+
+from mmplan.planners.extended_jacobian.step import CHUNK
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Terms:
+    """Outputs of ``terms`` at one state as NumPy (names as in the module docstring)."""
+
+    f0: Array
+    fv: Array
+    fp: Array
+    S: float
+    T0: Array
+    Tm: Array
+    err: float
+    Tg: Array
+    gK: Array  # noqa: N815
+
+
+@dataclass
+class GeneratorFunctions:
+    """The generator functions and their sizes (see the module docstring).
+
+    ``terms`` and ``step`` are the SX reference functions (``step`` only when not compiled);
+    ``effort`` maps x = [q; dq] to [Tm dq; Tg] (compiled with the others);
+    ``terms_flat`` (x = [q; dq; p]) and ``step_flat`` (x = [q; dq; u; s; ext; p; dt])
+    compute the same with one input and one output each (one NumPy conversion a call),
+    compiled to C when ``compiled`` (then ``step_flat`` is the fused step of
+    :mod:`ej_step`, equal to rounding); ``chunk`` runs ``chunk_steps`` steps with records
+    in one call.
+    """
+
+    step: ca.Function | None  # SX reference step (None when compiled)
+    terms: ca.Function
+    E: ca.Function
+    n: int
+    n_act: int
+    compiled: bool
+    terms_flat: ca.Function
+    step_flat: ca.Function
+    effort: ca.Function  # [q; dq] -> [Tm dq; Tg] (time scaling)
+    chunk: ca.Function | None = None
+    chunk_steps: int = CHUNK
+    record: ca.Function | None = None  # the fused step (x, par) -> (x_next, rec) of ej_step
+    native_chunk: Any = None  # cg.NativeFunction of chunk_flat (ej_step.build_chunk_flat)
+    _last: Array | None = None
+    cache: dict[str, Any] = field(default_factory=dict)  # functions built later (ej_feedback)
+
+    def evaluate(self, q: Array, dq: Array, p: Array) -> Terms:
+        """``terms`` at (q, dq) with parameters p = [p_f, Lambda_P, Lambda_V, Lambda_II]."""
+        v = self.terms_flat(np.concatenate([q, dq, p])).full().ravel()
+        n, a = self.n, self.n_act
+        cut = np.cumsum([n, n, n, 1, a, a * n, 1, a])
+        f0, fv, fp, S, T0, Tm, err, Tg, gK = np.split(v, cut)
+        return Terms(f0, fv, fp, float(S[0]), T0, Tm.reshape(n, a).T, float(err[0]), Tg, gK)
+
+    def evaluate_many(self, Q: Array, DQ: Array) -> tuple[Array, Array]:
+        """beta = Tm dq and Tg (each (N, n_act)) at N states (rows of Q, DQ), one call of
+        ``effort`` (the coefficients of the time scaling, :mod:`ej_timescale`, when the
+        compiled chunks did not record them)."""
+        N = len(Q)
+        X = np.vstack([np.asarray(Q, dtype=float).T, np.asarray(DQ, dtype=float).T])
+        V = np.asarray(self.effort.map(N)(X))
+        a = self.n_act
+        return np.ascontiguousarray(V[:a].T), np.ascontiguousarray(V[a:].T)
+
+    def advance(
+        self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float
+    ) -> tuple[Array, Array]:
+        """``step``: (q, dq) after dt with u, s, ext held."""
+        x = np.concatenate([q, dq, [u, s], ext, p, [dt]])
+        v = self.step_flat(x).full().ravel()
+        return v[: self.n], v[self.n :]
+
+    def run_chunk(
+        self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float
+    ) -> tuple[Array, Array]:
+        """``chunk_steps`` steps from (q, dq): states after each step (K, 2n) and the records
+        (K, n + n_act + 2) = [ddq, tau, err, f] at each step's start (:mod:`ej_step`)."""
+        if self.chunk is None:
+            raise RuntimeError("no chunk function")
+        par = np.concatenate([p, [u, s], ext, [dt]])
+        if self.native_chunk is not None:  # ctypes call, no CasADi/DM conversion
+            y = self._native_call(np.concatenate([q, dq, par]))
+            n, K, a = self.n, self.chunk_steps, self.n_act
+            X = y[: 2 * n * K].reshape(K, 2 * n)
+            R = y[2 * n * K : len(y) - n * n - 2 * a * K].reshape(K, -1)
+            return X, R
+        X, R = self.chunk(np.concatenate([q, dq]), par)
+        return np.asarray(X).T, np.asarray(R).T
+
+    def chunk_start_E(self) -> Array | None:
+        """E at the first state of the last native ``run_chunk`` call (None otherwise)."""
+        if self.native_chunk is None or self._last is None:
+            return None
+        n, end = self.n, len(self._last) - 2 * self.n_act * self.chunk_steps
+        return self._last[end - n * n : end].reshape(n, n, order="F")
+
+    def chunk_effort(self) -> Array | None:
+        """[Tm dq, Tg] (K, 2 n_act) at each step's start of the last native ``run_chunk``
+        call (None otherwise)."""
+        if self.native_chunk is None or self._last is None:
+            return None
+        a, K = self.n_act, self.chunk_steps
+        return self._last[len(self._last) - 2 * a * K :].reshape(K, 2 * a)
+
+    def _native_call(self, x: Array) -> Array:
+        native = self.native_chunk
+        assert native is not None
+        native.x[:] = x
+        self._last = native().copy()
+        return self._last

@@ -1,0 +1,249 @@
+r"""Base path planning that keeps manipulability (paper 004, Nagatani et al.; SPEC section 7).
+
+Pipeline: tool poses along the segment (one per layer) -> manipulability distribution of
+every layer over the grid of base positions (eq. (1) of 004, analytic IK, vectorized;
+:mod:`mmplan.planners.manipulability_area.grid`) -> LMA with the threshold (default 0.5 x the
+largest w of
+the whole stack; 004 uses a fixed value, set ``threshold`` for that) -> shortest straight
+base segment from the bottom to the top layer inside the LMA (section 4.1; round-robin over
+start/end cells, :mod:`mmplan.planners.manipulability_area.path`). Among the shortest grid-feasible
+segments
+the one with the largest exact minimum w is kept; a segment whose exact w (IK at the
+interpolated base positions, not at the cells) dips below the threshold is rejected.
+
+When no straight segment exists (the paper leaves it open): a shortest path through the
+voxelized LMA with at most ``max_step`` metres of base motion per layer, shortcut into few
+straight pieces between sub-goals, each verified with the exact w.
+
+Output: one trajectory row per layer (``substeps`` > 1: that many rows per layer interval,
+the exact checks use the same samples), time t = layer parameter s in [0, 1] (dq, ddq are
+exact derivatives with respect to s), q = (x, y, theta_B, q1..q6) with the arm joints by
+exact IK at the base position of that row. Sub-goal corners are rounded by parabolic blends
+over half a layer interval when the exact w stays above the threshold there (else kept).
+``problem.start`` is not used (the base start is chosen by the planner). Joint limits are
+ignored by default, as in 004 (its section 6 lists them as future work); the largest
+violation is reported, ``respect_joint_limits`` removes such cells.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, model_validator
+from pydantic_core import PydanticCustomError
+
+from mmplan.errors import InputError
+from mmplan.planners.base import Planner, register
+from mmplan.planners.manipulability_area import grid as lma_grid
+from mmplan.planners.manipulability_area import path as lma_path
+from mmplan.planners.manipulability_area.result import assemble, failure
+from mmplan.problem import PlannerSettings, Problem, Progress
+from mmplan.robot.library.base_6dof_ik import PumaGeometry
+from mmplan.task import DrawSegment
+from mmplan.trajectory import PlanResult
+
+#: Work bounds: the layer stack holds cells x layers manipulabilities (9 bytes each) and one
+#: layer's IK temporaries (a few hundred bytes a cell).
+MAX_GRID_CELLS = 1_000_000
+MAX_STACK_CELLS = 30_000_000
+
+
+class ManipulabilityAreaSettings(PlannerSettings):
+    """Settings of the manipulability-area planner (SPEC section 7 defaults)."""
+
+    method: Literal["manipulability-area"] = "manipulability-area"
+    x_range: tuple[float, float] = Field(default=(0.01, 1.0), description="grid x [m]")
+    y_range: tuple[float, float] = Field(default=(-0.8, 1.4), description="grid y [m]")
+    resolution: float = Field(default=0.01, gt=0, allow_inf_nan=False, description="cell [m]")
+    layers: int = Field(default=31, ge=2, le=1000, description="poses along the task")
+    threshold_ratio: float = Field(
+        default=0.5, gt=0, le=1, allow_inf_nan=False,
+        description="MA threshold / largest w of the whole LMA (ignored when threshold is set)",
+    )
+    threshold: float | None = Field(
+        default=None,
+        gt=0,
+        allow_inf_nan=False,
+        description="absolute MA threshold [m^3]; when set it wins over threshold_ratio",
+    )
+    heading: float | None = Field(
+        default=None,
+        allow_inf_nan=False,
+        description="base heading [rad]; default faces the surface",
+    )
+    shoulder: Literal["right", "left"] = "right"
+    elbow: Literal["up", "down"] = Field(default="up", description="Corke's ikine_a labels")
+    wrist_flip: bool = False
+    subgoals: bool = Field(
+        default=True, description="plan through sub-goals when no straight segment"
+    )
+    max_step: float = Field(
+        default=0.03,
+        gt=0,
+        allow_inf_nan=False,
+        description="sub-goal search: max base move per layer [m]",
+    )
+    straight_groups: int = Field(
+        default=200, ge=1, description="straight lengths verified exactly, at most"
+    )
+    respect_joint_limits: bool = False
+    substeps: int = Field(default=1, ge=1, le=100,
+                          description="trajectory rows (and exact checks) per layer interval")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> ManipulabilityAreaSettings:
+        for key, (lo, hi) in (("x_range", self.x_range), ("y_range", self.y_range)):
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+                raise ValueError(
+                    f"{key}: expected finite [min, max] with min < max, got [{lo}, {hi}]"
+                )
+        nx, ny = (int(np.floor((hi - lo) / self.resolution + 1e-9)) + 1
+                  for lo, hi in (self.x_range, self.y_range))
+        if nx * ny > MAX_GRID_CELLS or nx * ny * self.layers > MAX_STACK_CELLS:
+            raise PydanticCustomError(
+                "scenario",
+                f"a grid of {nx} x {ny} cells x {self.layers} layers is too large "
+                f"(limits: {MAX_GRID_CELLS:.0e} cells, {MAX_STACK_CELLS:.0e} cells x layers); "
+                "use a coarser resolution, smaller ranges or fewer layers",
+                {"key": "resolution"},
+            )
+        return self
+
+    def branch(self) -> lma_grid.Branch:
+        """The IK branch."""
+        return lma_grid.Branch(
+            1 if self.shoulder == "right" else -1, 1 if self.elbow == "up" else -1, self.wrist_flip
+        )
+
+
+@register
+class ManipulabilityArea(Planner):
+    """Paper 004: straight (or sub-goal) base path inside the Layer of Manipulability Areas."""
+
+    method = "manipulability-area"
+    settings_model = ManipulabilityAreaSettings
+
+    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+        """Plan the base path and the arm motion for a :class:`~mmplan.task.DrawSegment`."""
+        t0 = time.perf_counter()
+        settings = problem.settings
+        if not isinstance(settings, ManipulabilityAreaSettings):
+            raise InputError(
+                "planner", f"expected manipulability-area settings, got {type(settings).__name__}"
+            )
+        task = problem.task
+        if not isinstance(task, DrawSegment):
+            raise InputError(
+                "goal",
+                "manipulability-area plans a segment: expected "
+                f"goal.segment {{start, end, normal}}, got {type(task).__name__}",
+            )
+        if problem.scene.obstacles:
+            raise InputError(
+                "obstacles",
+                f"{len(problem.scene.obstacles)} given, but the manipulability-area method "
+                "has no obstacle model (paper 004); remove the obstacles or choose another "
+                "method",
+            )
+        if problem.robot.name != "base-6dof":
+            raise InputError(
+                "robot",
+                f"manipulability-area needs the analytic IK of base-6dof, "
+                f"got {problem.robot.name!r}",
+            )
+        geom = PumaGeometry.base_6dof()
+        grid = lma_grid.Grid.from_bounds(settings.x_range, settings.y_range, settings.resolution)
+        poses = lma_grid.tool_poses(task, settings.layers, settings.heading)
+        branch = settings.branch()
+        limits = (
+            (problem.robot.limits.joint_min, problem.robot.limits.joint_max)
+            if settings.respect_joint_limits
+            else None
+        )
+        stack = lma_grid.layer_stack(geom, grid, poses, branch, limits)
+        if progress is not None:
+            progress(0.5)
+
+        def fail(message: str) -> PlanResult:
+            return failure(problem, message, time.perf_counter() - t0)
+
+        unreachable = np.flatnonzero(~stack.reachable.any(axis=(1, 2)))
+        if unreachable.size:
+            k = int(unreachable[0])
+            return fail(
+                f"layer {k} (s={poses.s[k]:.3f}, tool at {np.round(poses.positions[k], 3)}"
+                f"): no IK solution from any grid cell (tool pose unreachable)"
+            )
+        threshold = (
+            settings.threshold
+            if settings.threshold is not None
+            else settings.threshold_ratio * float(stack.w.max())
+        )
+        masks = stack.areas(threshold)
+        empty = np.flatnonzero(~masks.any(axis=(1, 2)))
+        if empty.size:
+            k = int(empty[0])
+            return fail(
+                f"layer {k} (s={poses.s[k]:.3f}): manipulability area empty (max w "
+                f"{stack.w[k].max():.5g} < threshold {threshold:.5g} m^3)"
+            )
+        m = settings.substeps
+        dense = lma_grid.tool_poses(task, (settings.layers - 1) * m + 1, settings.heading)
+
+        def exact_min(xy: np.ndarray) -> np.ndarray:  # (M, L, 2) -> (M,), checked densely
+            w = lma_grid.path_manipulability(geom, dense, range(len(dense.s)),
+                                             lma_path.densify(xy, m), branch, limits)
+            return np.asarray(w.min(axis=1))
+
+        layer_xy, kind, checked = self._straight(masks, grid, settings.straight_groups,
+                                                 threshold, exact_min)
+        keep: list[int] = [0, settings.layers - 1]
+        if layer_xy is None:
+            if not settings.subgoals:
+                return fail(f"no straight base segment inside the LMA ({checked} lengths "
+                            "checked) and sub-goals are disabled")
+            step = max(1, int(np.floor(settings.max_step / settings.resolution + 1e-9)))
+            cells, bad = lma_path.layered_shortest_path(masks, step)
+            if cells is None:
+                return fail(f"layer {bad} (s={poses.s[bad]:.3f}): no base path reaches it "
+                            f"with moves <= {settings.max_step} m per layer inside the LMA")
+
+            def accept(i: int, pts: np.ndarray) -> bool:
+                xy = lma_path.densify(grid.to_metres(pts)[None], m)
+                w = lma_grid.path_manipulability(geom, dense, range(i * m, i * m + xy.shape[1]),
+                                                 xy, branch, limits)
+                return bool(w.min() >= threshold)
+
+            keep = lma_path.shortcut(cells, accept)
+            layer_xy = grid.to_metres(cells.astype(float))
+            kind = "subgoals"
+        if progress is not None:
+            progress(1.0)
+        return assemble(problem, stack, masks, threshold, dense, layer_xy[keep], keep, branch,
+                        limits, kind=kind, straight_groups=checked,
+                        elapsed=time.perf_counter() - t0)
+
+    @staticmethod
+    def _straight(
+        masks: np.ndarray,
+        grid: lma_grid.Grid,
+        groups: int,
+        threshold: float,
+        exact_min: lma_path.ExactCheck,
+    ) -> tuple[np.ndarray | None, str, int]:
+        """Shortest straight segment passing the exact check: (base xy (L, 2) | None, kind, n)."""
+        L = masks.shape[0]
+        s = np.linspace(0.0, 1.0, L)[None, :, None]
+        n = 0
+        for n, group in enumerate(lma_path.straight_candidates(masks), start=1):
+            if n > groups:
+                return None, "none", groups
+            a, b = grid.to_metres(group.starts)[:, None], grid.to_metres(group.ends)[:, None]
+            paths = a + s * (b - a)  # (M, L, 2)
+            wmin = exact_min(paths)
+            best = int(np.argmax(wmin))
+            if wmin[best] >= threshold:
+                return paths[best], "straight", n
+        return None, "none", n

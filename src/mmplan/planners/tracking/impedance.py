@@ -1,0 +1,243 @@
+r"""Virtual impedance for an omnidirectional mobile manipulator (paper 001, section 3; SPEC 5).
+
+Implements eqs. (33)-(42) of 001 (Abdessemed & Djebrani). The end-effector task
+:math:`\xi` (3) and the additional task :math:`\xi_{add}` = platform pose (x, y, theta) are
+stacked, :math:`\dot\xi_t = J_t u` with :math:`J_t = [J;\ J_{add}]` (eq. (36)), and the
+control is (eq. (37), u ordered as our q: platform first, then arm)
+
+.. math:: u = J_t^{-1}\big(\dot\xi_d^* + W_t(\xi_d^* - \xi_t)\big).
+
+Obstacles act on the platform x, y through the virtual impedance (eqs. (38)-(42)): the
+reference is :math:`\xi_d^* = \xi_t^* + F_{ext}/Z_d` with :math:`Z_d = B_d s + K_d` (no
+mass term, as the paper's interaction impedance), i.e. the correction
+:math:`\delta` = F_ext / Z_d obeys :math:`B_d \dot\delta + K_d \delta = F_{ext}` and
+enters the reference velocity as :math:`\dot\delta`. F_ext is the sum of the obstacle forces
+(F_target = 0 and F_man = 0: the paper uses only the obstacle force; attraction is the
+tracking term itself), each along the outward normal of the obstacle with magnitude
+
+.. math::
+    F_{obs}(d) = a_{obs} - b_{obs}(d - d_{min})^2 \ (d_{min} < d < d_{max}),\quad
+    a_{obs}\ (d \le d_{min}),\quad 0\ (d \ge d_{max}),\quad a_{obs} = b_{obs}(d_{max} - d_{min})^2,
+
+d the horizontal distance from the platform centre to the obstacle's surface
+(:func:`~mmplan.planners.tracking.geometry.horizontal_distance_sym`; a point obstacle is a
+thin post). Reading of the platform task (SPEC 5): :math:`\xi_p^*(t)` = (X_d,x(t) + o_x,
+X_d,y(t) + o_y, heading) with the offset o and heading from the settings; the example's
+"(t, t, pi/4)" is read as (0.1 t, 0.1 t, pi/4). ``b_obs = 0`` switches the impedance off.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Literal
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field, model_validator
+
+from mmplan.errors import InputError
+from mmplan.planners.base import Planner, register
+from mmplan.planners.tracking.geometry import horizontal_distance_sym
+from mmplan.planners.tracking.potentials import min_clearance_sym, sphere_distances
+from mmplan.planners.tracking.pseudoinverse import require_path
+from mmplan.planners.tracking.result import track
+from mmplan.planners.tracking.rollout import TrackingSettings, compile_step
+from mmplan.problem import Problem, Progress
+from mmplan.robot.robot import Robot
+from mmplan.scene.obstacle import Obstacle
+from mmplan.task import TrackPath
+from mmplan.trajectory import PlanResult
+
+Array = NDArray[np.float64]
+
+
+class ImpedanceSettings(TrackingSettings):
+    """Settings of the virtual-impedance tracker; defaults are SPEC section 5's example."""
+
+    method: Literal["impedance"] = "impedance"
+    dt: float = Field(default=0.001, gt=0, allow_inf_nan=False, description="integration step [s]")
+    gain: float = Field(5.0, ge=0, allow_inf_nan=False, description="W_t = gain I [1/s]")
+    platform_heading: float = Field(
+        np.pi / 4, allow_inf_nan=False, description="theta of the platform pose task [rad]"
+    )
+    platform_offset: tuple[float, float] = Field(
+        (0.0, 0.0), description="platform task x, y = end-effector path x, y + this offset [m]"
+    )
+    d_max: float = Field(
+        1.0,
+        gt=0,
+        allow_inf_nan=False,
+        description="repulsion zone [m] (an obstacle's own influence wins)",
+    )
+    d_min: float = Field(0.15, ge=0, allow_inf_nan=False, description="saturation distance [m]")
+    b_obs: float = Field(
+        0.25,
+        ge=0,
+        allow_inf_nan=False,
+        description="force coefficient [N/m^2]; 0 switches the impedance off",
+    )
+    damping: float = Field(1.0, gt=0, allow_inf_nan=False, description="B_d of Z_d = B_d s + K_d")
+    stiffness: float = Field(1.0, ge=0, allow_inf_nan=False, description="K_d of Z_d")
+    settle_time: float = Field(
+        1.0,
+        ge=0,
+        allow_inf_nan=False,
+        description="report the max tracking error after this time [s]",
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> ImpedanceSettings:
+        if self.d_min >= self.d_max:
+            raise ValueError(f"d_min ({self.d_min}) must be below d_max ({self.d_max})")
+        if not all(np.isfinite(v) for v in self.platform_offset):
+            raise ValueError(f"platform_offset must be finite, got {self.platform_offset}")
+        return self
+
+
+def obstacle_force_magnitude(d: ca.SX, d_min: float, d_max: float, b_obs: float) -> ca.SX:
+    """|F_obs|(d) of 001 section 3.3 (Borenstein & Koren), saturated below d_min, 0 beyond d_max."""
+    a_obs = b_obs * (d_max - d_min) ** 2
+    inner = a_obs - b_obs * (d - d_min) ** 2
+    return ca.if_else(d >= d_max, 0, ca.if_else(d <= d_min, a_obs, inner))
+
+
+class VirtualImpedance:
+    """Compiled model of eqs. (36)-(42) of 001 for one robot, scene and settings.
+
+    Attributes:
+        force: CasADi q -> (F_ext (2,), d_min): obstacle force on the platform and the
+            smallest horizontal platform-obstacle distance.
+        task_matrix: CasADi q -> J_t (6, n).
+        step: CasADi [q; delta; r(t); r(t + dt)] -> [q_next; delta_next; dq; ee; err; sigma;
+            clearance] with r = [xi* (3); dxi* (3); xi_p* (3); dxi_p* (3)] and the clearance
+            of the robot's collision spheres.
+    """
+
+    def __init__(
+        self, robot: Robot, obstacles: tuple[Obstacle, ...], settings: ImpedanceSettings
+    ) -> None:
+        if robot.h != 0 or robot.n_platform != 3 or robot.n < 6:
+            raise InputError(
+                "robot",
+                "impedance needs an omnidirectional platform (x, y, theta) "
+                f"and >= 3 arm joints; {robot.name} has h = {robot.h}, "
+                f"platform {robot.platform_coordinates}",
+            )
+        self.robot = robot
+        s = robot.symbols
+        q, n = s.q, robot.n
+        delta = ca.SX.sym("delta", 2)
+        ref = ca.SX.sym("ref", 12)
+        # Obstacle force on the platform centre (floor level), eqs. (39) and section 3.3.
+        p = ca.SX.sym("p", 3)
+        F = ca.SX.zeros(2)
+        d_min = ca.SX(1e3)
+        for obstacle in obstacles:
+            d_max = obstacle.influence if obstacle.influence is not None else settings.d_max
+            d = horizontal_distance_sym(obstacle, p)
+            grad = ca.gradient(d, p)[:2]
+            normal = grad / ca.sqrt(ca.sumsqr(grad) + 1e-18)
+            mag = obstacle_force_magnitude(
+                d, settings.d_min, max(d_max, settings.d_min + 1e-9), settings.b_obs
+            )
+            F += mag * normal
+            d_min = ca.fmin(d_min, d)
+        at_platform = ca.Function("f", [p], [F, d_min])
+        F_q, d_q = at_platform(ca.vertcat(q[0], q[1], 0))
+        self.force = ca.Function("impedance_force", [q], [F_q, d_q])
+        # Impedance filter B_d d' + K_d d = F_ext (eq. (41) with Z_d = B_d s + K_d).
+        ddelta = (F_q - settings.stiffness * delta) / settings.damping
+        shift = ca.vertcat(ca.SX.zeros(3), delta, 0)
+        dshift = ca.vertcat(ca.SX.zeros(3), ddelta, 0)
+        xi_ref = ca.vertcat(ref[0:3], ref[6:9]) + shift  # xi_d* (eq. (42))
+        dxi_ref = ca.vertcat(ref[3:6], ref[9:12]) + dshift
+        J_t = ca.vertcat(s.jacobian, ca.horzcat(ca.SX.eye(3), ca.SX.zeros(3, n - 3)))  # eq. (36)
+        xi_t = ca.vertcat(s.ee_position, q[0:3])
+        rhs = dxi_ref + settings.gain * (xi_ref - xi_t)
+        if n == 6:
+            J_inv = ca.solve(J_t, ca.SX.eye(6))  # eq. (37)
+        else:  # more arm joints: minimum-norm solution
+            J_inv = J_t.T @ ca.solve(J_t @ J_t.T, ca.SX.eye(6))
+        u = J_inv @ rhs
+        # sigma_min(J_t) = 1 / |J_t^-1|_2 >= 1 / |J_t^-1|_F (within a factor sqrt(6)).
+        sigma = 1.0 / ca.sqrt(ca.sumsqr(J_inv))
+        err = ca.norm_2(ref[0:3] - s.ee_position)
+        self.task_matrix = ca.Function("task_matrix", [q], [J_t])
+        state = ca.vertcat(q, delta)
+        pairs = sphere_distances(s.collision_points, robot.collision_radii, obstacles)
+        aux = ca.vertcat(s.ee_position, err, sigma, min_clearance_sym(pairs))
+        self.step = compile_step(
+            "impedance_step", state, ref, ca.vertcat(u, ddelta), aux, n, settings.dt
+        )
+        self.settings = settings
+
+    def reference(self, task: TrackPath, t: float) -> Array:
+        """r(t) = [xi*(t); dxi*(t); xi_p*(t); dxi_p*(t)] (12,) (SPEC 5 reading of xi_p*)."""
+        x, v = task.position(t), task.velocity(t)
+        o = self.settings.platform_offset
+        pose = np.array([x[0] + o[0], x[1] + o[1], self.settings.platform_heading])
+        dpose = np.array([v[0], v[1], 0.0])
+        return np.concatenate([x, v, pose, dpose])
+
+    def smallest_singular_value(self, q: Array) -> float:
+        """Exact sigma_min(J_t(q))."""
+        J_t = np.asarray(self.task_matrix(q), dtype=float)
+        return float(np.linalg.svd(J_t, compute_uv=False).min())
+
+
+@register
+class ImpedancePlanner(Planner):
+    """End-effector + platform-pose tracking with virtual impedance (001 section 3)."""
+
+    method = "impedance"
+    settings_model = ImpedanceSettings
+
+    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+        """Track ``problem.task`` (a :class:`TrackPath`) from ``problem.start``."""
+        clock = time.perf_counter()
+        settings = problem.settings
+        if not isinstance(settings, ImpedanceSettings):
+            raise InputError(
+                "planner", f"expected ImpedanceSettings, got {type(settings).__name__}"
+            )
+        task = require_path(problem)
+        model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings)
+        state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
+        return track(
+            problem,
+            settings,
+            self.method,
+            model.step,
+            state0,
+            lambda t: model.reference(task, t),
+            model.smallest_singular_value,
+            progress,
+            clock,
+            lambda run: (
+                _platform_distances(model, task, run.t, run.q) if problem.scene.obstacles else {}
+            ),
+        )
+
+
+def _platform_distances(
+    model: VirtualImpedance, task: TrackPath, t: Array, q: Array
+) -> dict[str, float]:
+    """Horizontal platform-centre distances to the nearest obstacle surface [m].
+
+    ``min_platform_obstacle_distance_m`` is the minimum over the run;
+    ``platform_obstacle_distance_at_pass_m`` is the distance at the pass: the time at which
+    the undisturbed platform reference comes closest to an obstacle (SPEC 5's comparison
+    with and without impedance).
+    """
+    distance = model.force.map(len(q))
+    actual = np.asarray(distance(q.T)[1], dtype=float).ravel()
+    q_ref = q.copy()
+    q_ref[:, :2] = np.array([model.reference(task, float(s))[6:8] for s in t])
+    reference = np.asarray(distance(q_ref.T)[1], dtype=float).ravel()
+    k = int(np.argmin(reference))
+    return {
+        "min_platform_obstacle_distance_m": float(actual.min()),
+        "platform_obstacle_distance_at_pass_m": float(actual[k]),
+        "pass_time_s": float(t[k]),
+    }

@@ -1,0 +1,124 @@
+r"""Null-space potentials of the pseudoinverse tracker (paper 001, section 2.3).
+
+Both potentials are CasADi expressions in the generalized coordinates q, so that their
+gradients dV/dq come from automatic differentiation inside the compiled control step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+
+from mmplan.planners.tracking.geometry import signed_distance_sym
+from mmplan.scene.obstacle import Obstacle
+
+
+def joint_limit_potential(
+    q: ca.SX,
+    arm_indices: Sequence[int],
+    joint_min: NDArray[np.float64],
+    joint_max: NDArray[np.float64],
+) -> ca.SX:
+    r"""Joint-limit potential, eq. (30) of 001, on the arm coordinates.
+
+    .. math:: V_1(q) = \tfrac12 \sum_{i \in arm} \big(q_i - (\bar q_i + \underline q_i)/2\big)^2
+
+    Args:
+        q: Symbolic coordinates (n,).
+        arm_indices: Positions of the arm coordinates in q (n_a,).
+        joint_min, joint_max: Arm limits (n_a,) [rad or m].
+
+    Returns:
+        Scalar V_1 [rad^2].
+    """
+    mid = (np.asarray(joint_min, dtype=float) + np.asarray(joint_max, dtype=float)) / 2.0
+    qa = ca.vertcat(*[q[i] for i in arm_indices]) if arm_indices else ca.SX(0, 1)
+    return 0.5 * ca.sumsqr(qa - ca.DM(mid))
+
+
+def barrier_term(d: ca.SX, k1: float, d0: float, d_floor: float) -> ca.SX:
+    r"""One term of the obstacle potential, eq. (32) of 001, with a linear floor.
+
+    .. math::
+        V_{2i}(d) = \tfrac12 k_1 (1/d - 1/d_0)^2 \ \ (d \le d_0), \qquad 0 \ \ (d > d_0).
+
+    Below ``d_floor`` (and inside an obstacle, d <= 0, where eq. (32) is undefined) the term
+    continues along its tangent at ``d_floor``, so that V stays finite and C^1 and its
+    gradient keeps pushing outwards with the force it has at ``d_floor``.
+
+    Args:
+        d: Distance from a robot point to an obstacle [m] (scalar expression).
+        k1: Gain k_1 [m^2].
+        d0: Influence distance d_0 [m] (> d_floor).
+        d_floor: Distance below which V is extended linearly [m] (> 0).
+    """
+    inner = 0.5 * k1 * (1.0 / d - 1.0 / d0) ** 2
+    v_floor = 0.5 * k1 * (1.0 / d_floor - 1.0 / d0) ** 2
+    slope = -k1 * (1.0 / d_floor - 1.0 / d0) / d_floor**2  # dV/dd at d_floor (< 0)
+    linear = v_floor + slope * (d - d_floor)
+    return ca.if_else(d >= d0, 0, ca.if_else(d >= d_floor, inner, linear))
+
+
+def sphere_distances(
+    points: ca.SX, radii: NDArray[np.float64], obstacles: Sequence[Obstacle]
+) -> list[tuple[Obstacle, ca.SX]]:
+    """d_ij = dist(p_i, O_j) - r_i for every collision sphere i and obstacle j.
+
+    Args:
+        points: Symbolic sphere centres (3, P) in world coordinates.
+        radii: Sphere radii (P,) [m].
+        obstacles: Scene obstacles.
+
+    Returns:
+        (obstacle, d_ij) pairs, obstacle-major.
+    """
+    return [
+        (obstacle, signed_distance_sym(obstacle, points[:, i]) - float(radii[i]))
+        for obstacle in obstacles
+        for i in range(points.shape[1])
+    ]
+
+
+def min_clearance_sym(pairs: Sequence[tuple[Obstacle, ca.SX]]) -> ca.SX:
+    """Smallest d_ij of :func:`sphere_distances` (1e3 when there are none)."""
+    d_min = ca.SX(1e3)
+    for _, d in pairs:
+        d_min = ca.fmin(d_min, d)
+    return d_min
+
+
+def obstacle_potential(
+    points: ca.SX,
+    radii: NDArray[np.float64],
+    obstacles: Sequence[Obstacle],
+    k1: float,
+    d0: float,
+    d_floor: float,
+) -> tuple[ca.SX, ca.SX]:
+    r"""Obstacle potential, eqs. (31)-(32) of 001, over the robot's collision spheres.
+
+    .. math:: V_2(q) = \sum_{i,j} V_{2}\big(d_{ij}(q)\big), \quad
+              d_{ij} = \mathrm{dist}(p_i(q), O_j) - r_i
+
+    with p_i the sphere centres, r_i their radii (0 for link points) and O_j the obstacles.
+    An obstacle's own ``influence`` (scenario key) replaces ``d0`` when set.
+
+    Args:
+        points: Symbolic sphere centres (3, P) in world coordinates.
+        radii: Sphere radii (P,) [m].
+        obstacles: Scene obstacles.
+        k1, d0, d_floor: See :func:`barrier_term`.
+
+    Returns:
+        (V_2, d_min): the potential and the smallest distance d_ij (the planner's clearance;
+        1e3 when there are no obstacles).
+    """
+    pairs = sphere_distances(points, radii, obstacles)
+    total = ca.SX(0)
+    for obstacle, d in pairs:
+        influence = obstacle.influence if obstacle.influence is not None else d0
+        total += barrier_term(d, k1, influence, d_floor)
+    return total, min_clearance_sym(pairs)

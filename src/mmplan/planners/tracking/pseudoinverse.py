@@ -1,0 +1,233 @@
+r"""Path tracking by the weighted pseudoinverse (paper 001, section 2; SPEC section 4).
+
+Implements eqs. (18)-(32) of 001 (Abdessemed & Djebrani). The stacked kinematics
+:math:`J(q)\,\dot q = [0;\ \dot X]` with :math:`J = [A(q);\ J_m(q)]` ((h + 3) x n: the
+Pfaffian rows of the platform, then the end-effector Jacobian) are solved for the
+weighted minimum-norm velocity with drift correction and a null-space term (eq. (24)):
+
+.. math::
+    \dot q = W^{-1} J^T (J W^{-1} J^T)^{-1} \big[\,0;\ \dot X_d + K (X_d - X)\big] + H z,
+    \qquad H = W_0^{-1} - W^{-1} J^T (J W^{-1} J^T)^{-1} J W_0^{-1}
+
+(eq. (23) as SPEC fixes it, so that J H = 0), W = W_0^T W_0 = diag(w), w_i = b_i / b_max
+from the coordinate ranges b_i (platform x, y: 10 m by default, other platform coordinates
+2 pi; arm: the joint limits). Eq. (27) writes the same solution through the SVD
+:math:`J W_0^{-1} = U \Sigma V^T`:
+:math:`\dot q = W_0^{-1} V \Sigma^+ U^T [\dots] + W_0^{-1}(I - V \Sigma^+ \Sigma V^T) z`;
+:meth:`WeightedPseudoinverse.svd_velocity` implements that form in NumPy (reference and
+benchmark baseline), while the compiled step uses the equal closed form above (one CasADi
+call per step, no SVD). z = -beta1 dV1/dq - beta2 dV2/dq (eqs. (28)-(29)) with the joint-limit
+potential V1 (eq. (30)) and the obstacle potential V2 (eqs. (31)-(32)) over the robot's
+collision spheres (:mod:`mmplan.planners.tracking.potentials`). Integration: Heun's
+explicit trapezoid rule with step dt (:func:`~mmplan.planners.tracking.rollout.compile_step`);
+the paper does not say which integrator it used.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Literal
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field, model_validator
+
+from mmplan.errors import InputError
+from mmplan.planners.base import Planner, register
+from mmplan.planners.tracking.potentials import joint_limit_potential, obstacle_potential
+from mmplan.planners.tracking.result import track
+from mmplan.planners.tracking.rollout import TrackingSettings, compile_step
+from mmplan.problem import Problem, Progress
+from mmplan.robot.robot import Robot
+from mmplan.scene.obstacle import Obstacle
+from mmplan.task import TrackPath
+from mmplan.trajectory import PlanResult
+
+Array = NDArray[np.float64]
+
+
+class PseudoinverseSettings(TrackingSettings):
+    """Settings of the weighted-pseudoinverse tracker; defaults are SPEC section 4's example."""
+
+    method: Literal["pseudoinverse"] = "pseudoinverse"
+    gain: float = Field(
+        2.0, ge=0, allow_inf_nan=False, description="drift correction K = gain I [1/s]"
+    )
+    beta1: float = Field(0.5, ge=0, allow_inf_nan=False, description="joint-limit potential weight")
+    beta2: float = Field(1.0, ge=0, allow_inf_nan=False, description="obstacle potential weight")
+    k1: float = Field(0.002, ge=0, allow_inf_nan=False, description="obstacle potential gain [m^2]")
+    d0: float = Field(
+        0.6,
+        gt=0,
+        allow_inf_nan=False,
+        description="influence distance d0 [m] (an obstacle's own influence wins)",
+    )
+    d_floor: float = Field(
+        0.02,
+        gt=0,
+        allow_inf_nan=False,
+        description="below this distance [m] V2 continues linearly (finite)",
+    )
+    platform_range: tuple[float, ...] | None = Field(
+        None, description="ranges b_i of the platform coordinates; default x, y 10 m, angles 2 pi"
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> PseudoinverseSettings:
+        if self.d_floor >= self.d0:
+            raise ValueError(f"d_floor ({self.d_floor}) must be below d0 ({self.d0})")
+        if self.platform_range is not None and not all(
+            b > 0 and np.isfinite(b) for b in self.platform_range
+        ):
+            raise ValueError(
+                f"platform_range must hold positive finite ranges, got {self.platform_range}"
+            )
+        return self
+
+
+def coordinate_weights(robot: Robot, platform_range: Sequence[float] | None) -> Array:
+    """w_i = b_i / b_max (eq. (18) of 001), b_i the range of coordinate i, (n,).
+
+    Raises:
+        InputError: wrong number of platform ranges, or an unbounded arm joint.
+    """
+    if platform_range is None:
+        platform_range = [10.0 if i < 2 else 2 * np.pi for i in range(robot.n_platform)]
+    if len(platform_range) != robot.n_platform:
+        raise InputError(
+            "planner.platform_range",
+            f"expected {robot.n_platform} ranges {robot.platform_coordinates}, "
+            f"got {len(platform_range)}",
+        )
+    arm = robot.limits.joint_max - robot.limits.joint_min
+    if not np.isfinite(arm).all():
+        raise InputError("limits.joints", "the pseudoinverse weights need finite arm joint limits")
+    b = np.concatenate([np.asarray(platform_range, dtype=float), arm])
+    if (b <= 0).any():
+        raise InputError("limits.joints", f"every coordinate range must be positive, got {b}")
+    return np.asarray(b / b.max(), dtype=float)
+
+
+class WeightedPseudoinverse:
+    """Compiled model of eqs. (22)-(32) of 001 for one robot, scene and settings.
+
+    Attributes:
+        w: Weights w_i (n,).
+        task_jacobian: CasADi q -> J = [A; J_m] ((h + 3), n).
+        null_projector: CasADi q -> H (n, n).
+        null_vector: CasADi q -> z = -beta1 dV1/dq - beta2 dV2/dq (n,).
+        potentials: CasADi q -> (V1, V2, d_min).
+        velocity: CasADi (q, X_d, dX_d) -> dq (eq. (24), closed form).
+        step: CasADi [q; r(t); r(t + dt)] -> [q_next; dq; ee; err; sigma; clearance],
+            r = [X_d; dX_d]
+            (one control step, :func:`~mmplan.planners.tracking.rollout.compile_step`).
+    """
+
+    def __init__(
+        self, robot: Robot, obstacles: Sequence[Obstacle], settings: PseudoinverseSettings
+    ) -> None:
+        self.robot = robot
+        self.settings = settings
+        self.w = coordinate_weights(robot, settings.platform_range)
+        s = robot.symbols
+        q, h = s.q, robot.h
+        J = ca.vertcat(s.pfaffian, s.jacobian)  # (h + 3, n)
+        lim = robot.limits
+        V1 = joint_limit_potential(q, robot.arm_indices, lim.joint_min, lim.joint_max)
+        V2, d_min = obstacle_potential(
+            s.collision_points,
+            robot.collision_radii,
+            obstacles,
+            settings.k1,
+            settings.d0,
+            settings.d_floor,
+        )
+        z = -settings.beta1 * ca.gradient(V1, q) - settings.beta2 * ca.gradient(V2, q)
+        w_inv = ca.DM(np.diag(1.0 / self.w))
+        w0_inv = ca.DM(np.diag(1.0 / np.sqrt(self.w)))
+        G = J @ w_inv @ J.T  # (h + 3, h + 3)
+        G_inv = ca.solve(G, ca.SX.eye(h + 3))
+        H = w0_inv - w_inv @ J.T @ G_inv @ J @ w0_inv
+        self.task_jacobian = ca.Function("task_jacobian", [q], [J])
+        self.null_projector = ca.Function("null_projector", [q], [H])
+        self.null_vector = ca.Function("null_vector", [q], [z])
+        self.potentials = ca.Function("potentials", [q], [V1, V2, d_min])
+
+        xd, dxd = ca.SX.sym("X_d", 3), ca.SX.sym("dX_d", 3)
+        err = xd - s.ee_position
+        rhs = ca.vertcat(ca.SX.zeros(h), dxd + settings.gain * err)
+        dq = w_inv @ J.T @ (G_inv @ rhs) + w0_inv @ z - w_inv @ J.T @ (G_inv @ (J @ (w0_inv @ z)))
+        # sigma_min(J W0^-1)^2 = 1 / lambda_max(G^-1) >= 1 / trace(G^-1): a lower bound within
+        # a factor sqrt(h + 3) of the exact value.
+        sigma = 1.0 / ca.sqrt(ca.trace(G_inv))
+        aux = ca.vertcat(s.ee_position, ca.norm_2(err), sigma, d_min)
+        self.velocity = ca.Function("pinv_velocity", [q, xd, dxd], [dq])
+        self.step = compile_step("pinv_step", q, ca.vertcat(xd, dxd), dq, aux, robot.n, settings.dt)
+
+    def svd_velocity(self, q: Array, xd: Array, dxd: Array) -> Array:
+        """dq by eq. (27) of 001 through the SVD of J W0^-1 (NumPy reference), (n,)."""
+        robot = self.robot
+        J = np.asarray(self.task_jacobian(q), dtype=float)
+        z = np.asarray(self.null_vector(q), dtype=float).ravel()
+        drift = self.settings.gain * (xd - robot.ee_position(q))
+        rhs = np.concatenate([np.zeros(robot.h), dxd + drift])
+        w0_inv = 1.0 / np.sqrt(self.w)
+        U, S, Vt = np.linalg.svd(J * w0_inv[None, :], full_matrices=False)
+        particular = w0_inv * (Vt.T @ ((U.T @ rhs) / S))
+        homogeneous = w0_inv * (z - Vt.T @ (Vt @ z))
+        return np.asarray(particular + homogeneous, dtype=float)
+
+    def smallest_singular_value(self, q: Array) -> float:
+        """Exact sigma_min(J(q) W0^-1)."""
+        J = np.asarray(self.task_jacobian(q), dtype=float)
+        return float(np.linalg.svd(J / np.sqrt(self.w)[None, :], compute_uv=False).min())
+
+
+def require_path(problem: Problem) -> TrackPath:
+    """The problem's task as a path, else :class:`InputError` on ``goal``."""
+    if not isinstance(problem.task, TrackPath):
+        raise InputError(
+            "goal",
+            f"{problem.settings.method} tracks a path (goal.path), "
+            f"got {type(problem.task).__name__}",
+        )
+    if np.shape(problem.start) != (problem.robot.n,):
+        raise InputError("start", f"expected {problem.robot.n} values {problem.robot.coordinates}")
+    return problem.task
+
+
+@register
+class PseudoinversePlanner(Planner):
+    """Weighted-pseudoinverse path tracker with null-space potentials (001 section 2)."""
+
+    method = "pseudoinverse"
+    settings_model = PseudoinverseSettings
+
+    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+        """Track ``problem.task`` (a :class:`TrackPath`) from ``problem.start``."""
+        clock = time.perf_counter()
+        settings = problem.settings
+        if not isinstance(settings, PseudoinverseSettings):
+            raise InputError(
+                "planner", f"expected PseudoinverseSettings, got {type(settings).__name__}"
+            )
+        task = require_path(problem)
+        model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings)
+
+        def reference(t: float) -> Array:
+            return np.concatenate([task.position(t), task.velocity(t)])
+
+        return track(
+            problem,
+            settings,
+            self.method,
+            model.step,
+            np.asarray(problem.start, dtype=float),
+            reference,
+            model.smallest_singular_value,
+            progress,
+            clock,
+            lambda run: {"weights": [float(v) for v in model.w]},
+        )

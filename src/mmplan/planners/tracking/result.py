@@ -1,0 +1,157 @@
+"""Results of the path-tracking rollouts (paper 001): trajectory, status, info, history.
+
+The trajectory's ddq is the central difference of dq; the clearance is measured exactly
+against the scene's (original) obstacles at the robot's collision spheres.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+
+from mmplan.errors import ModelError
+from mmplan.planners.tracking.rollout import Rollout, TrackingSettings, rollout
+from mmplan.problem import Problem, Progress
+from mmplan.robot.robot import Robot
+from mmplan.scene.scene import Scene
+from mmplan.task import TrackPath, completion_time
+from mmplan.trajectory import PlanResult, Status, Trajectory
+
+Array = NDArray[np.float64]
+
+
+def differentiate(dq: Array, dt: float) -> Array:
+    """ddq by central differences of dq (one-sided at the ends; zeros for one sample), (N, n)."""
+    if len(dq) < 2:
+        return np.zeros_like(dq)
+    return np.asarray(np.gradient(dq, dt, axis=0), dtype=float)
+
+
+def clearance_series(robot: Robot, scene: Scene, q: Array) -> Array | None:
+    """Exact clearance of the collision spheres at each sample (N,); None without obstacles."""
+    if not scene.obstacles:
+        return None
+    fn = robot.functions["collision_points"]
+    P = len(robot.collision)
+    raw = np.asarray(fn.map(len(q))(q.T), dtype=float)  # (3, N P), one block of P per sample
+    pts = raw.reshape(3, len(q), P).transpose(1, 2, 0).reshape(-1, 3)  # (N P, 3)
+    d = scene.distances(pts).min(axis=1).reshape(len(q), P) - robot.collision_radii[None, :]
+    return np.asarray(d.min(axis=1), dtype=float)
+
+
+def finish(
+    run: Rollout,
+    robot: Robot,
+    scene: Scene,
+    task: TrackPath,
+    planner: str,
+    dt: float,
+    settle_time: float,
+    timed_out: bool,
+    compute_time_s: float,
+    info: Mapping[str, Any],
+) -> PlanResult:
+    """Trajectory, status and info of a finished rollout.
+
+    Status: the rollout's own stop status when it stopped early; otherwise ``timeout`` when
+    ``t_max`` cut the path short, ``reached`` when the tracking error stays below the task
+    tolerance until the end, ``stalled`` when it does not.
+    """
+    trajectory = Trajectory(
+        robot.coordinates, run.t, run.q, run.dq, differentiate(run.dq, dt), run.ee
+    )
+    clearance = clearance_series(robot, scene, run.q)
+    settled = run.t >= settle_time - 1e-9
+    max_err_settled = float(run.error[settled].max()) if settled.any() else None
+    t_tol = completion_time(run.t, run.error, task.tolerance)
+    full_info: dict[str, Any] = {
+        "max_error_after_settle_m": max_err_settled,
+        "settle_time_s": settle_time,
+        "final_error_m": float(run.error[-1]),
+        "min_clearance_m": None if clearance is None else float(clearance.min()),
+        "min_singular_value_bound": float(np.nanmin(run.sigma))
+        if np.isfinite(run.sigma).any()
+        else None,
+        "steps": len(run.t),
+        **info,
+    }
+    if run.status is not None:
+        status, message = run.status, run.message
+    elif timed_out:
+        status = Status.TIMEOUT
+        message = f"t_max reached at t = {run.t[-1]:.3f} s before the path end"
+    elif t_tol is None:
+        status = Status.STALLED
+        message = (
+            f"tracking error {run.error[-1]:.2e} m at the path end exceeds {task.tolerance:g} m"
+        )
+    else:
+        status = Status.REACHED
+        message = (
+            f"tracked {run.t[-1]:.2f} s; error below {task.tolerance:g} m from t = {t_tol:.2f} s"
+        )
+    if clearance is not None and clearance.min() < 0:
+        k = int(np.argmin(clearance))
+        message += f"; the robot collides (clearance {clearance[k]:.3f} m at t = {run.t[k]:.2f} s)"
+    history: dict[str, Array] = {
+        "t": run.t,
+        "tracking_error_m": run.error,
+        "sigma_bound": run.sigma,
+    }
+    if clearance is not None:
+        history["clearance_m"] = clearance
+    return PlanResult(status, trajectory, planner, message, compute_time_s, full_info, history)
+
+
+def track(
+    problem: Problem,
+    settings: TrackingSettings,
+    planner: str,
+    step: ca.Function,
+    state0: Array,
+    reference: Callable[[float], Array],
+    exact_sigma: Callable[[Array], float],
+    progress: Progress,
+    clock: float,
+    info: Callable[[Rollout], Mapping[str, Any]] = lambda run: {},
+) -> PlanResult:
+    """Roll a compiled tracking step along ``problem.task`` and finish the result.
+
+    Shared by the trackers of paper 001: the horizon is min(path duration, t_max) at
+    ``settings.dt``; ``info(run)`` adds method-specific numbers; ``clock`` is the
+    ``time.perf_counter()`` at the start of planning (compute time).
+    """
+    task = problem.task
+    if not isinstance(task, TrackPath):  # planners call require_path first
+        raise ModelError(f"track: expected a TrackPath task, got {type(task).__name__}")
+    t_end = min(task.duration, settings.t_max)
+    steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
+    run = rollout(
+        step,
+        state0,
+        reference,
+        problem.robot,
+        settings.dt,
+        steps,
+        settings.stop_rules(),
+        exact_sigma,
+        progress,
+    )
+    return finish(
+        run,
+        problem.robot,
+        problem.scene,
+        task,
+        planner,
+        settings.dt,
+        settings.settle_time,
+        task.duration > settings.t_max,
+        time.perf_counter() - clock,
+        info(run),
+    )

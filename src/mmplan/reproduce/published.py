@@ -1,0 +1,294 @@
+"""Every number the papers publish for their examples, and SPEC's own reference numbers.
+
+Data for ``mmplan reproduce`` (:mod:`mmplan.reproduce.run`): which runs to make (the built-in
+paper scenarios of SPEC section 8 and two "switched off" variants that the references compare
+against) and, per published number, where our value comes from (:class:`Measure`), how to judge
+the difference (:class:`Check`) and the source of the number. Our values are never written here:
+they are read from each run's summary.json, scenario.yaml and trajectory.csv.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from types import MappingProxyType
+from typing import Any
+
+#: Built-in paper scenarios (SPEC section 8 table), in reproduction order, with their paper.
+SCENARIOS: Mapping[str, str] = MappingProxyType({
+    "youbot3r-obstacles": "000",
+    "youbot3r-obstacles-torque": "000",
+    "youbot4r-reach": "003",
+    "youbot4r-reach-smooth": "003",
+    "diffdrive3-track": "001 s.2",
+    "omni3-impedance": "001 s.3",
+    "car-rtr-free": "002",
+    "car-rtr-steer60": "002",
+    "car-rtr-steer30": "002",
+    "wall-segment": "004",
+})
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A built-in scenario with planner settings changed (a comparison the references make).
+
+    Attributes:
+        name: Run name (its directory under the reproduction folder).
+        base: Built-in scenario it derives from; the variant runs whenever its base does.
+        planner: Planner settings that replace the base scenario's.
+        note: What the variant switches off, and why.
+    """
+
+    name: str
+    base: str
+    planner: Mapping[str, Any]
+    note: str
+
+
+VARIANTS: tuple[Variant, ...] = (
+    Variant("diffdrive3-track-no-obstacle-term", "diffdrive3-track",
+            MappingProxyType({"beta2": 0.0, "stop_on_collision": False}),
+            "obstacle potential off (beta2 = 0), not stopped at contact: SPEC section 4 "
+            "compares the clearance with and without the obstacle term"),
+    Variant("omni3-impedance-off", "omni3-impedance",
+            MappingProxyType({"b_obs": 0.0, "stop_on_collision": False}),
+            "virtual impedance off (b_obs = 0), not stopped at contact: SPEC section 5 "
+            "compares the platform-obstacle distance with and without it"),
+)
+
+
+class Op(Enum):
+    """How a :class:`Measure` turns run files into one value."""
+
+    VALUE = "value"              # value at key in runs[0]
+    INCREASE = "increase"        # value(runs[1]) / value(runs[0]) - 1
+    MINUS = "minus"              # value at key minus value at other, both in runs[0]
+    COLUMN_MAX_ABS = "max_abs"   # max |column| over the trajectory and the columns in key
+    COLUMN_FIRST_ABS = "first"   # max |column| at the first sample over the columns in key
+    PLANAR_NORM_MAX = "norm"     # max over samples of |(column key[0], column key[1])|
+
+
+@dataclass(frozen=True)
+class Measure:
+    """Where our value of a published number comes from.
+
+    Key paths start at summary.json; a path whose first element is ``"@scenario"`` reads the
+    resolved scenario.yaml instead. For the column operations ``key`` lists trajectory.csv
+    column names.
+
+    Attributes:
+        runs: Run names the value needs; the first one is linked from the table.
+        key: Key path or column names.
+        op: The operation.
+        other: Second key path (``Op.MINUS``).
+    """
+
+    runs: tuple[str, ...]
+    key: tuple[str, ...]
+    op: Op = Op.VALUE
+    other: tuple[str, ...] = ()
+
+
+class Check(Enum):
+    """How our value is judged against the published one (tolerance ``Reference.tol``)."""
+
+    CLOSE = "close"          # |ours - paper| <= tol (relative when Reference.relative)
+    AT_MOST = "at_most"      # ours <= paper (holds), <= paper + tol (within slack)
+    AT_LEAST = "at_least"    # ours >= paper
+    EQUALS = "equals"        # same value (text or integer)
+
+
+@dataclass(frozen=True)
+class Reference:
+    """One published number and how ours is compared with it.
+
+    Attributes:
+        figure: Paper and place ("000 s.5", "SPEC s.3").
+        quantity: What is measured (the run name is added by the table).
+        paper: Published value; a pair for a point (x, y); text for a label.
+        unit: Unit of paper and ours ("%" values are fractions, printed times 100).
+        measure: Where our value comes from.
+        check: How ours is judged.
+        tol: Tolerance of the check (see :class:`Check`).
+        relative: ``tol`` is relative to ``|paper|`` (else absolute, in ``unit``).
+        source: Where the number is printed (and how it was read).
+        paper_text: How to print the paper value (with its unit) when not just the number.
+        known_gap: Why a difference is expected (shown when the verdict is "differs").
+    """
+
+    figure: str
+    quantity: str
+    paper: float | tuple[float, float] | str
+    unit: str
+    measure: Measure
+    check: Check = Check.CLOSE
+    tol: float = 0.1
+    relative: bool = True
+    source: str = ""
+    paper_text: str = ""
+    known_gap: str = field(default="")
+
+
+def _v(run: str, *key: str) -> Measure:
+    return Measure((run,), key)
+
+
+Y3, Y3T, Y4, Y4S = ("youbot3r-obstacles", "youbot3r-obstacles-torque", "youbot4r-reach",
+                    "youbot4r-reach-smooth")
+DD, DD0, OM, OM0 = ("diffdrive3-track", "diffdrive3-track-no-obstacle-term", "omni3-impedance",
+                    "omni3-impedance-off")
+CAR, CAR60, CAR30, WALL = "car-rtr-free", "car-rtr-steer60", "car-rtr-steer30", "wall-segment"
+CREEP = ("SPEC s.3: the paper's unpublished kappa, C and varrho make its robot creep near "
+         "obstacles (about 4x longer); matching these seconds is not the goal")
+T_PAPER = "T(1 mm)"
+T_NOTE = "; the paper gives no completion criterion: ours is T(1 mm) (SPEC s.3 reports both)"
+PSI = ("planner_info", "max_abs.psi")
+OVER = ("planner_info", "bound_overshoot.psi")
+
+REFERENCES: tuple[Reference, ...] = (
+    # ---- paper 000 (Pajak & Pajak), section 5 ------------------------------------------
+    Reference("000 s.5", f"{T_PAPER}, no torque limits", 44.6, "s", _v(Y3, "duration_1mm_s"),
+              source="000 s.5 text: 'task execution is equal to 44.6 s'" + T_NOTE, known_gap=CREEP),
+    Reference("000 s.5", f"{T_PAPER}, with torque limits", 49.4, "s", _v(Y3T, "duration_1mm_s"),
+              source="000 s.5 text: 'the final time slightly increased to 49.4 s'" + T_NOTE,
+              known_gap=CREEP),
+    Reference("000 s.5", "time added by the torque limits", 49.4 / 44.6 - 1, "%",
+              Measure((Y3, Y3T), ("duration_1mm_s",), Op.INCREASE), tol=0.05, relative=False,
+              source="000 s.5: 49.4 s / 44.6 s (SPEC s.3: 'about +10 %')",
+              known_gap="SPEC s.3 reference: 11.3 s vs 11.7 s, the limits need not slow "
+                        "the plan down"),
+    # ---- paper 003 (Pajak), section 5 ---------------------------------------------------
+    Reference("003 s.5", f"{T_PAPER}, plain generator", 7.13, "s", _v(Y4, "duration_1mm_s"),
+              source="003 s.5.4 text: 'equal to 7.13 [s] and 7.34 [s], respectively'" + T_NOTE),
+    Reference("003 s.5", f"{T_PAPER}, extended generator (wheel torque limits)", 7.34, "s",
+              _v(Y4S, "duration_1mm_s"),
+              source="003 s.5.4 text (second of the two times)" + T_NOTE),
+    Reference("003 s.5", "time added by the torque limits", 7.34 / 7.13 - 1, "%",
+              Measure((Y4, Y4S), ("duration_1mm_s",), Op.INCREASE), tol=0.05, relative=False,
+              source="003 s.5.4: 7.34 s / 7.13 s"),
+    # ---- paper 002 (Janiak & Tchon), section III -----------------------------------------
+    Reference("002 s.III-A", "max |psi| without bounds", math.pi / 2, "rad", _v(CAR, *PSI),
+              Check.AT_LEAST, tol=0.0, paper_text="> pi/2 = 1.571 rad",
+              source="002 s.III-A, Fig. 2: 'the turn angle of the front wheels takes "
+                     "unrealistic values greater than pi/2'"),
+    Reference("002 s.III-B", "max |psi| with |psi| <= pi/3", math.pi / 3, "rad",
+              _v(CAR60, *PSI), Check.AT_MOST, tol=0.03,
+              source="002 s.III-B, Fig. 3 (bound pi/3, alpha = 50); 3 % slack: SPEC s.6",
+              paper_text="<= pi/3 = 1.047 rad"),
+    Reference("002 s.III-B", "max |psi| with |psi| <= pi/6", math.pi / 6, "rad",
+              _v(CAR30, *PSI), Check.AT_MOST, tol=0.03,
+              source="002 s.III-B, Fig. 4 (bound pi/6, alpha = 50); 3 % slack: SPEC s.6",
+              paper_text="<= pi/6 = 0.524 rad"),
+    Reference("SPEC s.6", "max |psi| without bounds", 6.57, "rad", _v(CAR, *PSI), tol=0.02,
+              source="SPEC s.6 Reference (l2 = l3 = 0.5, |e| < 1e-4)"),
+    Reference("SPEC s.6", "overshoot of max |psi| above pi/3", 0.03, "%", _v(CAR60, *OVER),
+              Check.AT_MOST, tol=0.0, source="SPEC s.6 Reference: 'within about 2-3 % above "
+              "the bound'", paper_text="<= 3 %"),
+    Reference("SPEC s.6", "overshoot of max |psi| above pi/6", 0.03, "%", _v(CAR30, *OVER),
+              Check.AT_MOST, tol=0.0, source="SPEC s.6 Reference", paper_text="<= 3 %"),
+)
+
+_CLEAR = ("min_clearance_m",)
+_MARGIN = ("@scenario", "planner", "obstacle_margin")
+_WHEELS = ("tau.wheel1", "tau.wheel2")
+
+REFERENCES += (
+    # ---- SPEC section 3: our reference runs of the 000 and 003 examples -------------------
+    Reference("SPEC s.3", "T(1 cm), no torque limits", 9.3, "s", _v(Y3, "duration_1cm_s"),
+              source="SPEC s.3 'Results of that reference (dt 2 ms)'"),
+    Reference("SPEC s.3", "T(1 mm), no torque limits", 11.7, "s", _v(Y3, "duration_1mm_s"),
+              source="SPEC s.3 'Results of that reference'"),
+    Reference("SPEC s.3", "T(1 cm), with torque limits", 8.9, "s", _v(Y3T, "duration_1cm_s"),
+              source="SPEC s.3 'Results of that reference'"),
+    Reference("SPEC s.3", "T(1 mm), with torque limits", 11.3, "s", _v(Y3T, "duration_1mm_s"),
+              source="SPEC s.3 'Results of that reference'"),
+    Reference("SPEC s.3", "min distance to the enlarged obstacles (clearance - margin)", 0.07,
+              "m", Measure((Y3,), _CLEAR, Op.MINUS, _MARGIN), tol=0.02, relative=False,
+              source="SPEC s.3 'Results of that reference'; ours: exact clearance to the "
+                     "original obstacles minus the planner's obstacle_margin (exact for the "
+                     "sphere and the cylinder sides)"),
+    Reference("SPEC s.3", "min clearance to the original obstacles, with torque limits", 0.0,
+              "m", _v(Y3T, *_CLEAR), Check.AT_LEAST, tol=0.0,
+              source="SPEC s.3: 'a collision-free, limit-respecting ... plan'",
+              paper_text=">= 0 m (collision-free)"),
+    Reference("SPEC s.3", "max torque-limit violation, with torque limits", 0.0, "N m",
+              _v(Y3T, "max_torque_violation"), Check.AT_MOST, tol=0.0,
+              source="SPEC s.3: 'A product must not break limits silently'",
+              paper_text="0 N m (within limits)"),
+    Reference("SPEC s.3", "manipulability at the start (000 example)", 0.00974, "m^3",
+              _v(Y3, "manipulability_start"), tol=0.02,
+              source="SPEC s.3 'mu 0.00974 -> 0.01985'"),
+    Reference("SPEC s.3", "manipulability at the end (000 example)", 0.01985, "m^3",
+              _v(Y3, "manipulability_end"), tol=0.02,
+              source="SPEC s.3 'mu 0.00974 -> 0.01985' (with the joint-limit penalty)"),
+    Reference("SPEC s.3", "peak platform speed", 2.0, "m/s",
+              Measure((Y3,), ("dq.x", "dq.y"), Op.PLANAR_NORM_MAX), tol=0.25,
+              source="SPEC s.3: 'peak platform speed about 2 m/s'", paper_text="about 2 m/s"),
+    Reference("SPEC s.3", "T(1 cm), plain generator (003 example)", 6.1, "s",
+              _v(Y4, "duration_1cm_s"), source="SPEC s.3 Reference (003, RK4 dt 5 ms)"),
+    Reference("SPEC s.3", "wheel torque at t = 0, plain generator", 2.35, "N m",
+              Measure((Y4,), _WHEELS, Op.COLUMN_FIRST_ABS), tol=0.05,
+              source="SPEC s.3: 'steps the wheel torque from 0 to 2.35 N m at t = 0'"),
+    Reference("SPEC s.3", "max |wheel torque| with the virtual control", 0.18, "N m",
+              Measure((Y4S,), _WHEELS, Op.COLUMN_MAX_ABS), Check.AT_MOST, tol=0.02,
+              relative=False, source="SPEC s.3: 'all wheel torques stay within +-0.18 N m' "
+              "(limit 0.2 N m)", paper_text="<= 0.18 N m (limit 0.2)"),
+    Reference("SPEC s.3", "manipulability at the start (003 example)", 0.0100, "m^3",
+              _v(Y4, "manipulability_start"), tol=0.02, source="SPEC s.3 Reference (003)"),
+    Reference("SPEC s.3", "manipulability at the end (003 example)", 0.0202, "m^3",
+              _v(Y4, "manipulability_end"), tol=0.02, source="SPEC s.3 Reference (003)"),
+    # ---- paper 001 (Abdessemed & Djebrani): it prints figures only; SPEC s.4-5 numbers -----
+    Reference("001 s.2", "obstacle avoided with the obstacle term (min clearance)", 0.0, "m",
+              _v(DD, *_CLEAR), Check.AT_LEAST, tol=0.0,
+              source="001 s.2.4 figures (no numbers printed)", paper_text="> 0 m (avoided)"),
+    Reference("SPEC s.4", "max tracking error after 2 s", 5.2e-4, "m",
+              _v(DD, "planner_info", "max_error_after_settle_m"),
+              source="SPEC s.4 Reference: 'after 2 s the tracking error stays below 5.2e-4 m'"),
+    Reference("SPEC s.4", "min clearance with the obstacle term", 0.055, "m", _v(DD, *_CLEAR),
+              tol=0.01, relative=False, source="SPEC s.4 Reference: 'clearance +0.055 m'"),
+    Reference("SPEC s.4", "min clearance without the obstacle term", -0.30, "m",
+              _v(DD0, *_CLEAR), tol=0.05, relative=False,
+              source="SPEC s.4 Reference: '-0.30 m (collision) without it'"),
+    Reference("001 s.3.4", "collision avoided by the impedance (min clearance)", 0.0, "m",
+              _v(OM, *_CLEAR), Check.AT_LEAST, tol=0.0,
+              source="001 s.3.4, Figs. 24-25: 'the collision is avoided'",
+              paper_text="> 0 m (avoided)"),
+    Reference("SPEC s.5", "max end-effector error for t >= 1 s", 3.7e-3, "m",
+              _v(OM, "planner_info", "max_error_after_settle_m"),
+              source="SPEC s.5 Reference: 'end-effector error <= 3.7e-3 m for t >= 1 s'"),
+    Reference("SPEC s.5", "platform-obstacle distance at the pass, with impedance", 0.365, "m",
+              _v(OM, "planner_info", "platform_obstacle_distance_at_pass_m"), tol=0.02,
+              relative=False, source="SPEC s.5 Reference: '0.365 m ... with impedance'"),
+    Reference("SPEC s.5", "platform-obstacle distance at the pass, without impedance", 0.247,
+              "m", _v(OM0, "planner_info", "platform_obstacle_distance_at_pass_m"), tol=0.02,
+              relative=False, source="SPEC s.5 Reference: 'vs 0.247 m without'"),
+    # ---- paper 004 (Nagatani et al.), section 5; SPEC section 7 ----------------------------
+    Reference("004 s.5.5", "a straight base segment exists in the LMA", "straight", "",
+              _v(WALL, "planner_info", "path_kind"), Check.EQUALS,
+              source="004 s.5.5, Fig. 8: 'the path was found ..., expressed by a black segment'"),
+    Reference("SPEC s.7", "grid cells per layer", 22100.0, "", _v(WALL, "planner_info",
+              "cells_per_layer"), Check.EQUALS, source="SPEC s.7 Reference: '22,100 cells'"),
+    Reference("SPEC s.7", "horizontal base path length", 0.122, "m",
+              _v(WALL, "planner_info", "path_length_m"), tol=0.005, relative=False,
+              source="SPEC s.7 Reference"),
+    Reference("SPEC s.7", "base path start (x, y)", (0.27, 0.26), "m",
+              _v(WALL, "planner_info", "start_xy"), tol=0.0142, relative=False,
+              source="SPEC s.7 Reference; tolerance one grid-cell diagonal (1 cm grid)"),
+    Reference("SPEC s.7", "base path end (x, y)", (0.29, 0.38), "m",
+              _v(WALL, "planner_info", "end_xy"), tol=0.0142, relative=False,
+              source="SPEC s.7 Reference; tolerance one grid-cell diagonal (1 cm grid)"),
+    Reference("SPEC s.7", "manipulability threshold (0.5 max w)", 0.00397, "m^3",
+              _v(WALL, "planner_info", "manipulability_threshold"), tol=0.01,
+              source="SPEC s.7 Reference"),
+    Reference("SPEC s.7", "min w along the path (exact IK)", 0.00398, "m^3",
+              _v(WALL, "planner_info", "manipulability_min"), tol=0.01,
+              source="SPEC s.7 Reference"),
+    Reference("SPEC s.7", "min w minus threshold along the path", 0.0, "m^3",
+              Measure((WALL,), ("planner_info", "manipulability_min"), Op.MINUS,
+                      ("planner_info", "manipulability_threshold")), Check.AT_LEAST, tol=0.0,
+              source="SPEC s.7 / 004 s.3.3: the base stays in the MA (w >= threshold)",
+              paper_text=">= 0 m^3"),
+)

@@ -1,0 +1,284 @@
+"""Scenario files: loading, validation against the robot and planner, building a Problem.
+
+A scenario file (YAML, SPEC section 8; schema in :mod:`mmplan.scenario.schema`) names a
+built-in robot, a start configuration, a goal, obstacles, optional limits and the planner
+settings. :func:`load_scenario` validates everything that can be known before planning and
+raises :class:`ScenarioError` (an :class:`~mmplan.errors.InputError`, exit code 2) whose
+message is one line ``<source>: <key path>: <problem>``, e.g.
+``scenario.yaml: limits.torque.min[2]: min 1 > max 0``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+from pydantic import ValidationError
+
+from mmplan.errors import InputError, MmplanError
+from mmplan.planners import get_planner, methods
+from mmplan.problem import PlannerSettings, Problem
+from mmplan.robot import Limits, Robot, get_robot
+from mmplan.scenario.parse import ScenarioError, parse_yaml, validation_error
+from mmplan.scenario.schema import GoalSpec, LimitsSpec, ScenarioSpec
+from mmplan.scene import Obstacle, Scene, obstacle_from_dict
+from mmplan.task import DrawSegment, LinePath, PolynomialPath, ReachPoint, Task, WaypointPath
+
+Array = NDArray[np.float64]
+
+
+def builtin_scenarios() -> dict[str, Path]:
+    """Built-in scenarios (``src/mmplan/scenario/builtin/*.yaml``), name -> file, sorted by name."""
+    folder = resources.files("mmplan.scenario") / "builtin"
+    found = {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if p.name.endswith(".yaml")}
+    return dict(sorted(found.items()))
+
+
+def load_scenario(name_or_path: str | Path, *, require_planner: bool = True,
+                  check_start: bool = True) -> Scenario:
+    """Load and validate a scenario from a file path or a built-in scenario name.
+
+    An existing file wins over a built-in scenario of the same name.
+
+    Args:
+        name_or_path: File path or built-in name (see :func:`builtin_scenarios`).
+        require_planner: When False, a method that is not installed is accepted and its
+            settings are kept unvalidated (for checking plans made elsewhere).
+        check_start: When False, a start outside the joint limits or in collision is
+            accepted (``mmplan check`` then reports it as a failed check instead).
+
+    Raises:
+        ScenarioError: the file is missing, not YAML, or fails validation.
+    """
+    path = Path(name_or_path)
+    source = str(name_or_path)
+    if not path.is_file():
+        builtins = builtin_scenarios()
+        if source not in builtins:
+            raise ScenarioError(source, "", "no such file and no built-in scenario of that name; "
+                                f"built-ins: {', '.join(builtins) or 'none'}")
+        path = builtins[source]
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(source, "", f"cannot read: {exc}") from None
+    return Scenario.from_dict(parse_yaml(text, source), source, require_planner=require_planner,
+                              check_start=check_start)
+
+
+def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
+    """(robot, planner method) of a scenario file, read without full validation (for listings).
+
+    Raises:
+        ScenarioError: missing file, malformed YAML, or no robot / planner.method.
+    """
+    source = str(name_or_path)
+    path = builtin_scenarios().get(source, Path(name_or_path))
+    try:
+        data = parse_yaml(path.read_text(encoding="utf-8"), source)
+    except OSError as exc:
+        raise ScenarioError(source, "", f"cannot read: {exc.strerror or exc}") from None
+    planner = data.get("planner")
+    method = planner.get("method") if isinstance(planner, dict) else None
+    robot = data.get("robot")
+    if not isinstance(robot, str) or not isinstance(method, str):
+        raise ScenarioError(source, "", "needs robot and planner.method")
+    return robot, method
+
+
+class Scenario:
+    """A validated scenario: robot (with limits), scene, task, start and planner settings.
+
+    Build one with :func:`load_scenario` or :meth:`Scenario.from_dict`; everything is
+    checked on construction, so :meth:`build` cannot fail.
+    """
+
+    def __init__(self, spec: ScenarioSpec, source: str = "<scenario>", *,
+                 require_planner: bool = True, check_start: bool = True) -> None:
+        self.spec = spec
+        self.source = source
+        try:
+            base = get_robot(spec.robot)
+            self.start = self._start(spec.start, base)
+            self.robot: Robot = base.with_limits(_limits(spec.limits, base))
+            self.settings: PlannerSettings = _settings(spec.planner, source, require_planner)
+            #: False when the method is not installed and its settings were not validated.
+            self.planner_validated = str(spec.planner["method"]) in methods()
+            self.task: Task = _task(spec.goal)
+            self.scene = Scene(tuple(_obstacle(o.model_dump(exclude_none=True), i)
+                                     for i, o in enumerate(spec.obstacles)))
+            if check_start:
+                _check_start(self.robot, self.scene, self.start)
+        except ScenarioError:
+            raise
+        except InputError as exc:
+            raise ScenarioError(source, exc.field, exc.problem) from None
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<scenario>", *,
+                  require_planner: bool = True, check_start: bool = True) -> Scenario:
+        """Validate a scenario given as a mapping (the parsed YAML); see :func:`load_scenario`."""
+        try:
+            spec = ScenarioSpec.model_validate(dict(data))
+        except ValidationError as exc:
+            raise validation_error(exc, dict(data), source) from None
+        return cls(spec, source, require_planner=require_planner, check_start=check_start)
+
+    @property
+    def name(self) -> str:
+        """Scenario name."""
+        return self.spec.name
+
+    @property
+    def method(self) -> str:
+        """Planner method name."""
+        return self.settings.method
+
+    def build(self) -> Problem:
+        """The planning problem (robot with the scenario's limits, scene, task, start, settings)."""
+        return Problem(self.robot, self.scene, self.task, self.start.copy(), self.settings)
+
+    def resolved_dict(self) -> dict[str, Any]:
+        """The scenario with every default filled in (written as scenario.yaml)."""
+        lim = self.robot.limits
+        torque: Any = "unlimited"
+        if lim.has_torque_limits:
+            torque = {"min": _floats(lim.torque_min), "max": _floats(lim.torque_max)}
+        return {
+            "name": self.spec.name,
+            "robot": self.spec.robot,
+            "start": _floats(self.start),
+            "goal": self.spec.goal.model_dump(mode="python", exclude_none=True),
+            "obstacles": [_shape_first(o.model_dump(mode="python", exclude_none=True))
+                          for o in self.spec.obstacles],
+            "limits": {"joints": {"min": _floats(lim.joint_min), "max": _floats(lim.joint_max)},
+                       "torque": torque},
+            "planner": (self.settings.model_dump(mode="json") if self.planner_validated
+                        else dict(self.spec.planner)),
+        }
+
+    def to_yaml(self) -> str:
+        """:meth:`resolved_dict` as YAML text."""
+        text = yaml.safe_dump(self.resolved_dict(), sort_keys=False, default_flow_style=None)
+        return f"# Resolved scenario: every default filled in (written by mmplan).\n{text}"
+
+    @staticmethod
+    def _start(values: Sequence[float], robot: Robot) -> Array:
+        if len(values) != robot.n:
+            names = ", ".join(robot.coordinates[:3]) + (", ..." if robot.n > 3 else "")
+            raise InputError("start", f"expected {robot.n} values ({names}), got {len(values)}")
+        return np.asarray(values, dtype=float)
+
+    def __repr__(self) -> str:
+        return f"Scenario({self.name!r}, robot={self.robot.name!r}, method={self.method!r})"
+
+
+def _shape_first(data: dict[str, Any]) -> dict[str, Any]:
+    """Obstacle form in reading order: shape, its geometry, then influence."""
+    tail = {"influence": data.pop("influence")} if "influence" in data else {}
+    return {"shape": data.pop("shape"), **data, **tail}
+
+
+def _floats(values: Array) -> list[float]:
+    return [float(v) for v in values]
+
+
+def _limits(spec: LimitsSpec | None, robot: Robot) -> Limits:
+    lim = robot.limits
+    jmin, jmax, tmin, tmax = lim.joint_min, lim.joint_max, lim.torque_min, lim.torque_max
+    n_arm, n_act = len(robot.arm_coordinates), len(robot.actuators)
+
+    def vector(key: str, values: list[float] | None, default: Array, n: int,
+               names: Sequence[str]) -> Array:
+        if values is None:
+            return np.asarray(default, dtype=float)
+        if len(values) != n:
+            raise InputError(key, f"expected {n} values ({', '.join(names)}), got {len(values)}")
+        return np.asarray(values, dtype=float)
+
+    if spec is not None and spec.joints is not None:
+        arm = robot.arm_coordinates
+        jmin = vector("limits.joints.min", spec.joints.min, jmin, n_arm, arm)
+        jmax = vector("limits.joints.max", spec.joints.max, jmax, n_arm, arm)
+    if spec is not None and spec.torque is not None:
+        if spec.torque.unlimited:
+            tmin, tmax = np.full(n_act, -np.inf), np.full(n_act, np.inf)
+        else:
+            tmin = vector("limits.torque.min", spec.torque.min, tmin, n_act, robot.actuators)
+            tmax = vector("limits.torque.max", spec.torque.max, tmax, n_act, robot.actuators)
+    for key, lo, hi in (("limits.joints", jmin, jmax), ("limits.torque", tmin, tmax)):
+        bad = np.flatnonzero(lo > hi)
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(f"{key}.min[{i}]", f"min {lo[i]:g} > max {hi[i]:g}")
+    return Limits(jmin, jmax, tmin, tmax)
+
+
+def _settings(planner: Mapping[str, Any], source: str, required: bool) -> PlannerSettings:
+    method = str(planner["method"])
+    if not required and method not in methods():
+        # Unvalidated record of the settings (extra keys kept) for a method not installed here.
+        return PlannerSettings.model_construct(**dict(planner))
+    model = get_planner(method).settings_model
+    try:
+        return model.model_validate(dict(planner))
+    except ValidationError as exc:
+        raise validation_error(exc, dict(planner), source, prefix="planner") from None
+
+
+def _task(goal: GoalSpec) -> Task:
+    tol = goal.tolerance
+    if goal.position is not None:
+        return ReachPoint(_vec3(goal.position), tol)
+    if goal.segment is not None:
+        s = goal.segment
+        return DrawSegment(_vec3(s.start), _vec3(s.end), _vec3(s.normal), tol)
+    path = goal.path
+    if path is None:  # excluded by GoalSpec's validator
+        raise InputError("goal", "expected exactly one of position, path, segment")
+    if path.kind == "line":
+        return LinePath(_vec3(path.start), _vec3(path.velocity), path.duration, tol)
+    if path.kind == "waypoints":
+        return WaypointPath(tuple(_vec3(p) for p in path.points), tuple(path.times), tol)
+    return PolynomialPath(tuple(_vec3(c) for c in path.coefficients), path.duration, tol)
+
+
+def _vec3(values: Sequence[float]) -> tuple[float, float, float]:
+    return (float(values[0]), float(values[1]), float(values[2]))
+
+
+def _obstacle(data: dict[str, Any], index: int) -> Obstacle:
+    try:
+        return obstacle_from_dict(data)
+    except InputError as exc:
+        raise InputError(f"obstacles[{index}].{exc.field}".rstrip("."), exc.problem) from None
+    except MmplanError as exc:
+        raise InputError(f"obstacles[{index}]", str(exc)) from None
+
+
+def _check_start(robot: Robot, scene: Scene, start: Array) -> None:
+    """Start inside the joint limits and collision-free (original obstacles, exact distance)."""
+    lim = robot.limits
+    for j, i in enumerate(robot.arm_indices):
+        lo, hi = lim.joint_min[j], lim.joint_max[j]
+        if not lo <= start[i] <= hi:
+            raise InputError(f"start[{i}]", f"{robot.coordinates[i]} = {start[i]:g} outside the "
+                             f"joint limits [{lo:g}, {hi:g}]")
+    if not scene.obstacles or not robot.collision:
+        return
+    points = robot.collision_points(start)  # (P, 3)
+    gap = scene.distances(points) - robot.collision_radii[:, None]  # (P, n_obs)
+    p, o = np.unravel_index(int(np.argmin(gap)), gap.shape)
+    if gap[p, o] < 0:
+        x, y, z = points[p]
+        raise InputError("start", f"in collision: robot point {p} (on {robot.collision[p].body}, "
+                         f"at ({x:.3f}, {y:.3f}, {z:.3f})) is {-gap[p, o]:.6g} m inside "
+                         f"obstacles[{o}]")
+
+
+__all__ = ["Scenario", "ScenarioError", "builtin_scenarios", "load_scenario", "scenario_header"]

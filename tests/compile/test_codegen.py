@@ -1,0 +1,55 @@
+"""Shared C code generation (mmplan.compile.codegen): cache, lazy build, direct ctypes call."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from mmplan.compile import codegen as cg
+
+
+@pytest.fixture()
+def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    return tmp_path
+
+
+def _function() -> ca.Function:
+    x = ca.SX.sym("x", 3)
+    y = ca.vertcat(ca.sin(x[0]) * x[1], x[2] ** 3 / (1 + x[0] ** 2), 0)  # a structural zero
+    return ca.Function("mmplan_test_fn", [x], [ca.densify(y)])
+
+
+def test_compiled_library_is_cached_and_lazily_built(cache: Path) -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    made: list[int] = []
+
+    def make() -> list[ca.Function]:
+        made.append(1)
+        return [_function()]
+
+    first = cg.compile_library(make, "t", ("-O0",), key="k1")
+    again = cg.compile_library(make, "t", ("-O0",), key="k1")
+    assert first is not None and first == again and len(made) == 1  # second call: cache hit
+    assert Path(first).parent == cache
+    messages: list[str] = []
+    other = cg.compile_library([_function()], "t", ("-O0",), notify=messages.append)
+    assert other is not None and other != first and "once" in messages[0]
+    (fn,) = cg.load(["mmplan_test_fn"], other)
+    x = np.array([0.3, -1.2, 2.0])
+    np.testing.assert_allclose(np.asarray(fn(x)).ravel(), np.asarray(_function()(x)).ravel())
+
+
+def test_native_call_equals_the_casadi_call(cache: Path) -> None:
+    library = cg.compile_library([_function()], "t", ("-O0",))
+    assert library is not None
+    native = cg.NativeFunction(library, "mmplan_test_fn")
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        x = rng.normal(size=3)
+        native.x[:] = x
+        np.testing.assert_array_equal(native().copy(), np.asarray(_function()(x)).ravel())
