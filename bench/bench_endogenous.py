@@ -1,9 +1,9 @@
-"""Speed of the endogenous planner (paper 002): compiled CasADi rollout vs plain NumPy/SciPy.
+"""Speed of the endogenous planner ([JaniakTchon]): compiled CasADi rollout vs NumPy/SciPy.
 
-Both solve the same problems (SPEC section 6: car-rtr, q0 = (20, 0, pi/2, 0), x0 = (0, 1,
+Both solve the same problems (docs/endogenous.md: car-rtr, q0 = (20, 0, pi/2, 0), x0 = (0, 1,
 pi/2), y_d = (0, 0, 2), T = 1) with the same theta-iteration (gamma = 0.1, stop at
 |e_r| < 1e-4). The baseline integrates state + sensitivity with ``scipy.integrate.solve_ivp``
-(RK45, rtol 1e-8) using the paper's matrices A, B, C, D (section III of 002) in NumPy; the
+(RK45, rtol 1e-8) using the paper's matrices A, B, C, D ([JaniakTchon] section III) in NumPy; the
 compiled planner integrates them by RK4 inside one CasADi function per iteration.
 
 Run: ``python bench/bench_endogenous.py`` (prints times, speed-up and the agreement).
@@ -20,7 +20,8 @@ from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from mmplan.planners.endogenous import cache as endogenous_cache
-from mmplan.planners.endogenous.planner import BoundSetting, EndogenousPlanner, EndogenousSettings
+from mmplan.planners.endogenous.planner import EndogenousPlanner
+from mmplan.planners.endogenous.settings import BoundSetting, EndogenousSettings
 from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
 from mmplan.scene.scene import Scene
@@ -46,7 +47,7 @@ def sigmoid(z: float) -> float:
 
 
 def numpy_error_and_jacobian(lam: Array, x: Array, bound: float | None) -> tuple[Array, Array]:
-    """e_r (eq. (19)) and J (eq. (7)) of 002 by solve_ivp of state + sensitivity."""
+    """e_r (eq. (19)) and J (eq. (7)) of [JaniakTchon] by solve_ivp of state + sensitivity."""
     nb = 0 if bound is None else 1
     nz = 4 + nb
 

@@ -1,4 +1,4 @@
-"""Extended-Jacobian planner (papers 000, 003): the four paper scenarios and per-step timing.
+"""Extended-Jacobian planner ([PajakPajak], [Pajak]): the four paper scenarios, per-step timing.
 
 Part 1 plans ``youbot4r-reach``, ``youbot4r-reach-smooth``, ``youbot3r-obstacles`` and
 ``youbot3r-obstacles-torque`` with the generator compiled to C (CasADi code generation) and
@@ -277,7 +277,7 @@ def time_steps() -> None:
 
 
 def random_scenario(rng: np.random.Generator, index: int) -> dict[str, object]:
-    """A random youbot-3r scenario in the YAML form (SPEC section 8)."""
+    """A random youbot-3r scenario in the YAML form (docs/conventions.md)."""
     angle, dist = rng.uniform(-np.pi, np.pi), rng.uniform(1.0, 4.0)
     goal = [dist * np.cos(angle), dist * np.sin(angle), rng.uniform(0.0, 0.45)]
     obstacles: list[dict[str, object]] = []

@@ -1,7 +1,7 @@
-"""Manipulability-area planner (paper 004): vectorized pipeline vs per-cell Python loops.
+"""Manipulability-area planner ([Nagatani]): vectorized pipeline vs per-cell Python loops.
 
-Two stages of the ``wall-segment`` problem (SPEC section 7: 31 layers x 22,100 cells), each
-timed both ways in this run:
+Two stages of the ``wall-segment`` problem (docs/manipulability_area.md: 31 layers x 22,100
+cells), each timed both ways in this run:
 
 1. LMA construction: the manipulability distribution of every layer. Vectorized:
    :func:`mmplan.planners.manipulability_area.grid.layer_stack` (one batched IK call a layer).
@@ -12,7 +12,7 @@ timed both ways in this run:
    branch as :mod:`mmplan.robot.library.base_6dof_ik`, early exit on unreachable cells: the
    strongest
    pure-Python baseline), on all layers.
-2. Straight-segment search (paper 004 section 4.1, round robin). Vectorized:
+2. Straight-segment search ([Nagatani] section 4.1, round robin). Vectorized:
    :func:`mmplan.planners.manipulability_area.path.straight_candidates` (FFT pruning of
    displacements,
    shifted-mask ANDs). Baselines: (a) a loop over start cells of the bottom layer, NumPy over
@@ -142,7 +142,7 @@ def pair_loop(masks: NDArray[np.bool_], starts: int) -> tuple[float, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--layers", type=int, default=31, help="layers (SPEC: 31)")
+    parser.add_argument("--layers", type=int, default=31, help="layers (the example has 31)")
     parser.add_argument("--loop-layers", type=int, default=2,
                         help="layers for the per-cell library loop (slow)")
     parser.add_argument("--pair-starts", type=int, default=50,

@@ -1,4 +1,4 @@
-"""Per-step time of the path-tracking planners of paper 001 against a NumPy baseline.
+"""Per-step time of the path-tracking planners of [AbdessemedDjebrani] against a NumPy baseline.
 
 The compiled step (one CasADi call: kinematics, closed-form weighted pseudoinverse or J_t
 solve, potential gradients, Heun integration) is timed against a NumPy implementation of the
@@ -17,13 +17,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from mmplan.planners.tracking.impedance import ImpedancePlanner, ImpedanceSettings, VirtualImpedance
-from mmplan.planners.tracking.pseudoinverse import (
-    PseudoinversePlanner,
-    PseudoinverseSettings,
-    WeightedPseudoinverse,
-)
+from mmplan.planners.tracking.impedance import VirtualImpedance
+from mmplan.planners.tracking.planner import ImpedancePlanner, PseudoinversePlanner
+from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
 from mmplan.planners.tracking.rollout import BufferedStep
+from mmplan.planners.tracking.settings import ImpedanceSettings, PseudoinverseSettings
 from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
 from mmplan.scene import Scene, obstacle_from_dict

@@ -1,6 +1,6 @@
-"""Paper 003's vibration claim: tip vibration of a compliant arm for the two 003 plans.
+"""[Pajak]'s vibration claim: tip vibration of a compliant arm for its two example plans.
 
-Plans ``youbot4r-reach`` (plain generator, eq. (12) of 003) and ``youbot4r-reach-smooth``
+Plans ``youbot4r-reach`` (plain generator, [Pajak] eq. (12)) and ``youbot4r-reach-smooth``
 (virtual control, eq. (17)) and drives a tip mass on a 3-D spring-damper attached to the
 planned end-effector point (:mod:`mmplan.analysis.vibration`) with each plan, for tip modes of 10,
 15

@@ -4,7 +4,7 @@ Each cycle the loop reads the state (q, dq), asks the generator for (ddq, tau, u
 it. Here the "robot" is a simulation: it integrates ddq (semi-implicit Euler, one generator
 call per cycle of the scenario's dt) and keeps the wheels rolling by projecting dq into
 ker A(q) (wheel metric, as the planner does). The scenario is youbot4r-reach-smooth: wheel
-torques limited to +-0.2 N m, virtual control u (paper 003) starting at 0.
+torques limited to +-0.2 N m, virtual control u ([Pajak]) starting at 0.
 
 Run: ``python examples/control_loop.py [SECONDS] [--compiled]`` (``--compiled`` generates C
 for the step: a one-time build of a few seconds, then about 8 us a call instead of ~100 us).

@@ -10,7 +10,7 @@ import tempfile
 
 import mmplan
 
-scenario = mmplan.load_scenario("car-rtr-steer30")  # paper 002, steering bounded by pi/6
+scenario = mmplan.load_scenario("car-rtr-steer30")  # [JaniakTchon], steering bounded by pi/6
 problem = scenario.build()
 planner = mmplan.get_planner(scenario.method)()
 result = planner.plan(problem)

@@ -10,7 +10,7 @@ import numpy as np
 import mmplan
 
 robot = mmplan.get_robot("youbot-3r")
-q0 = np.array([0.0, -0.5, np.pi / 2, 0.0, 0.0, 0.0, -0.17, 0.35])  # paper 000's start
+q0 = np.array([0.0, -0.5, np.pi / 2, 0.0, 0.0, 0.0, -0.17, 0.35])  # [PajakPajak]'s start
 print(robot)
 print("end effector k(q0) [m]:", np.round(robot.ee_position(q0), 4))
 print("manipulability mu(q0):", round(robot.manipulability(q0), 5))

@@ -16,7 +16,8 @@ from pydantic import Field
 
 from mmplan.planners.base import Planner, register
 from mmplan.problem import PlannerSettings, Problem, Progress
-from mmplan.trajectory import PlanResult, Status, Trajectory
+from mmplan.task import Task
+from mmplan.trajectory import Solution, Status, Trajectory
 
 METHOD = "test-eta"
 
@@ -31,16 +32,17 @@ class EtaSettings(PlannerSettings):
 
 
 @register
-class EtaPlanner(Planner):
+class EtaPlanner(Planner[EtaSettings, Task]):
     """dq = N(q) eta, RK4."""
 
-    method = METHOD
     settings_model = EtaSettings
+    task_type = Task
+    task_hint = "any goal"
 
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
-        s = problem.settings
-        assert isinstance(s, EtaSettings)
-        robot, task = problem.robot, problem.task
+    def _solve(
+        self, problem: Problem, s: EtaSettings, task: Task, progress: Progress
+    ) -> Solution:
+        robot = problem.robot
         eta = np.asarray(s.eta, dtype=float)
 
         def f(q: np.ndarray) -> np.ndarray:
@@ -49,7 +51,6 @@ class EtaPlanner(Planner):
         steps = int(np.ceil(s.t_max / s.dt))
         qs = [np.asarray(problem.start, dtype=float)]
         status = Status.TIMEOUT
-        t0 = time.perf_counter()
         for k in range(steps + 1):
             ee = robot.ee_position(qs[-1])
             if task.errors(np.array([k * s.dt]), ee[None, :])[0] < task.tolerance:
@@ -73,7 +74,6 @@ class EtaPlanner(Planner):
         ddq = np.gradient(dq, t, axis=0) if len(t) > 1 else np.zeros_like(dq)
         ee_arr = np.array([robot.ee_position(q) for q in q_arr])
         traj = Trajectory(robot.coordinates, t, q_arr, dq, ddq, ee_arr)
-        return PlanResult(status, traj, METHOD, message=f"{status.value} after {len(t)} samples",
-                          compute_time_s=time.perf_counter() - t0,
-                          info={"steps": len(t) - 1, "eta_norm": float(np.linalg.norm(eta))},
-                          history={"error": np.linalg.norm(ee_arr - ee_arr[-1], axis=1)})
+        return Solution(status, traj, message=f"{status.value} after {len(t)} samples",
+                        info={"steps": len(t) - 1, "eta_norm": float(np.linalg.norm(eta))},
+                        history={"error": np.linalg.norm(ee_arr - ee_arr[-1], axis=1)})

@@ -35,7 +35,7 @@ class ReachPoint(Task):
 def completion_time(t: Array, errors: Array, tolerance: float) -> float | None:
     """T(tol): first time after which ``errors < tolerance`` holds for good (None if never).
 
-    SPEC section 3: task completion time T(tol) = first time after which
+    Task completion time (docs/extended_jacobian.md): T(tol) = first time after which
     |k(q) - p_f| < tol holds until the end of the trajectory.
     """
     above = np.flatnonzero(np.asarray(errors) >= tolerance)
@@ -51,7 +51,7 @@ class TrackPath(Task):
     """Follow a time-parametrized end-effector path X_d(t) on [0, duration].
 
     Subclasses give the reference position and velocity; the error at a sample is
-    |ee(t) - X_d(t)| (paper 001 sections 2 and 3).
+    |ee(t) - X_d(t)| ([AbdessemedDjebrani] sections 2 and 3).
     """
 
     duration: float
@@ -90,7 +90,7 @@ class DrawSegment(Task):
     """Move the tool tip along the segment ``start`` -> ``end`` [m] with the tool axis
     along ``-normal`` (pointing into the surface whose outward normal is ``normal``).
 
-    Used by the manipulability-area base planner (paper 004); the trajectory's time is the
+    Used by the manipulability-area base planner ([Nagatani]); the trajectory's time is the
     segment parameter s in [0, 1]. The error is the distance to the point at parameter t.
     """
 

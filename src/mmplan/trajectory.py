@@ -99,7 +99,7 @@ class Trajectory:
         return np.array([np.interp(time, self.t, self.q[:, i]) for i in range(self.q.shape[1])])
 
     def columns(self) -> tuple[list[str], Array]:
-        """Header and data (N, columns) in the order of SPEC section 8."""
+        """Header and data (N, columns) in the order of docs/conventions.md."""
         names = ["t"]
         names += [f"q.{c}" for c in self.coordinates]
         names += [f"dq.{c}" for c in self.coordinates]
@@ -117,6 +117,21 @@ class Trajectory:
         names += ["ee.x", "ee.y", "ee.z"]
         blocks.append(self.ee)
         return names, np.hstack(blocks)
+
+
+@dataclass(frozen=True)
+class Solution:
+    """What a method's solve returns; :meth:`Planner.plan` adds the method name and the time.
+
+    Attributes are those of :class:`PlanResult` of the same names.
+    """
+
+    status: Status
+    trajectory: Trajectory
+    message: str = ""
+    info: Mapping[str, Any] = field(default_factory=dict)
+    history: Mapping[str, Array] = field(default_factory=dict)
+    artifacts: Mapping[str, Array] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Vibration of a compliant tip (mmplan.analysis.vibration): closed forms, references, paper 003's
+"""Vibration of a compliant tip (mmplan.analysis.vibration): closed forms, references, [Pajak]'s
 claim."""
 
 from __future__ import annotations
@@ -146,15 +146,15 @@ def _plan(name: str) -> tuple[Trajectory, Robot]:
 
 
 @pytest.fixture(scope="module")
-def paper_003() -> dict[str, tuple[Trajectory, Robot]]:
-    """The two 003 plans (plain generator eq. (12), smooth eq. (17))."""
+def pajak_plans() -> dict[str, tuple[Trajectory, Robot]]:
+    """The two [Pajak] plans (plain generator eq. (12), smooth eq. (17))."""
     return {name: _plan(name) for name in ("youbot4r-reach", "youbot4r-reach-smooth")}
 
 
 def test_smooth_generator_shakes_the_tip_less(
-    paper_003: dict[str, tuple[Trajectory, Robot]],
+    pajak_plans: dict[str, tuple[Trajectory, Robot]],
 ) -> None:
-    """Paper 003's claim, as measured: the smooth start removes the 10-20 Hz excitation.
+    """[Pajak]'s claim, as measured: the smooth start removes the 10-20 Hz excitation.
 
     Measured (15 Hz, zeta 0.03): vibration RMS 0.30 vs 0.0007 m/s^2, first second 0.9 vs 0.0015,
     peak 2.9 (the t = 0 acceleration step) vs 0.004; absolute tip RMS 0.53 vs 0.18.
@@ -162,7 +162,7 @@ def test_smooth_generator_shakes_the_tip_less(
     for f, z in ((10.0, 0.02), (15.0, 0.03), (20.0, 0.05)):
         plain, smooth = (
             vibration_study(tr, robot, frequency_hz=f, damping_ratio=z)
-            for tr, robot in paper_003.values()
+            for tr, robot in pajak_plans.values()
         )
         assert smooth.rms < 0.05 * plain.rms
         assert smooth.rms_first_second < 0.05 * plain.rms_first_second
@@ -177,9 +177,9 @@ def test_smooth_generator_shakes_the_tip_less(
         assert in_band[0] < 0.05 * in_band[1]
 
 
-def test_artifacts_and_input_errors(paper_003: dict[str, tuple[Trajectory, Robot]]) -> None:
+def test_artifacts_and_input_errors(pajak_plans: dict[str, tuple[Trajectory, Robot]]) -> None:
     """Artifacts: a freq axis with equally long amplitudes; bad parameters are InputError."""
-    tr, robot = paper_003["youbot4r-reach-smooth"]
+    tr, robot = pajak_plans["youbot4r-reach-smooth"]
     result = vibration_study(tr, robot)
     arts = vibration_artifacts(result)
     freq = arts["vibration_freq_hz"]
@@ -214,13 +214,25 @@ def test_with_vibration_adds_artifacts_and_scalars() -> None:
     assert out.info["vibration_peak"] == pytest.approx(0.2, rel=1e-9)
 
 
-def test_extended_jacobian_plans_carry_the_vibration_study() -> None:
-    """Every extended-Jacobian plan reports 003's vibration measures and spectrum."""
+def test_analyse_adds_the_vibration_study_the_settings_ask_for() -> None:
+    """The planner itself adds no study; :func:`mmplan.analysis.analyse` adds the vibration
+    measures and spectrum when the settings ask for them (extended Jacobian, default on)."""
+    import dataclasses
+
+    from mmplan.analysis import analyse
     from mmplan.planners import get_planner
     from mmplan.scenario.loader import load_scenario
 
     scenario = load_scenario("youbot4r-reach-smooth")
-    result = get_planner(scenario.method)().plan(scenario.build())
+    problem = scenario.build()
+    planned = get_planner(scenario.method)().plan(problem)
+    assert "vibration_rms" not in planned.info and not planned.artifacts
+    off = dataclasses.replace(
+        problem, settings=problem.settings.model_copy(update={"vibration": False})
+    )
+    assert analyse(planned, off) is planned
+    result = analyse(planned, problem)
+    assert result.trajectory is planned.trajectory and result.status is planned.status
     assert result.info["vibration_rms"] > 0
     assert result.info["vibration_rms"] < result.info["tip_acceleration_rms"]
     assert (

@@ -9,7 +9,7 @@ import math
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any, ClassVar, Literal
+from typing import Any, Literal
 
 import numpy as np
 import pytest
@@ -20,7 +20,8 @@ import mmplan
 from mmplan.cli.main import _Bar, main
 from mmplan.planners.base import Planner, register
 from mmplan.problem import PlannerSettings, Problem, Progress
-from mmplan.trajectory import PlanResult
+from mmplan.task import Task
+from mmplan.trajectory import PlanResult, Solution
 from tests.eta_planner import METHOD
 
 BASE: dict[str, Any] = {
@@ -44,13 +45,16 @@ class CrashSettings(PlannerSettings):
 
 
 @register
-class CrashPlanner(Planner):
+class CrashPlanner(Planner[CrashSettings, Task]):
     """Raises an unexpected exception (a bug), to check that no traceback reaches the user."""
 
-    method: ClassVar[str] = "test-crash"
     settings_model = CrashSettings
+    task_type = Task
+    task_hint = "any goal"
 
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+    def _solve(
+        self, problem: Problem, settings: CrashSettings, task: Task, progress: Progress
+    ) -> Solution:
         raise ZeroDivisionError("division by zero in step 3")
 
 

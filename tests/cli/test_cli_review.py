@@ -208,7 +208,7 @@ def test_no_progress_bar_output_without_a_terminal(tmp_path: Path) -> None:
     data = changed("goal", {"position": _reachable_goal(0.5), "tolerance": 0.005})
     data["planner"] = {**data["planner"], "sleep_s": 3.0}  # 1.5 s to reach: > the bar delay
     code = "import sys, tests.eta_planner; from mmplan.cli.main import main; sys.exit(main())"
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     proc = subprocess.run([sys.executable, "-c", code, "plan", str(write(tmp_path, data)),
                            "--out", str(tmp_path / "o")], cwd=root, capture_output=True,
                           text=True, timeout=120, check=False)

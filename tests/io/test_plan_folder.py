@@ -1,4 +1,4 @@
-"""Plan directories: exact round trips, SPEC column order and keys, atomic writes."""
+"""Plan directories: exact round trips, contract column order and keys, atomic writes."""
 
 from __future__ import annotations
 
@@ -21,10 +21,10 @@ from mmplan import (
     read_trajectory_csv,
     write_plan,
 )
-from mmplan.verify import check
+from mmplan.verify.check import check
 from tests.eta_planner import METHOD
 
-SPEC_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
+CONTRACT_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
              "final_error_m", "min_clearance_m", "max_joint_limit_violation",
              "max_torque_violation", "max_pfaffian_residual", "manipulability_start",
              "manipulability_end", "manipulability_min", "compute_time_s", "samples"]
@@ -91,8 +91,8 @@ def test_summary_keys_values_and_side_files(tmp_path: Path, rng: np.random.Gener
     sc, result = make_scenario(), make_result(rng)
     write_plan(tmp_path / "p", result, sc.build(), sc)
     summary = json.loads((tmp_path / "p" / "summary.json").read_text())
-    assert list(summary)[: len(SPEC_KEYS)] == SPEC_KEYS
-    assert set(summary) - set(SPEC_KEYS) == {"message", "scenario", "planner_info",
+    assert list(summary)[: len(CONTRACT_KEYS)] == CONTRACT_KEYS
+    assert set(summary) - set(CONTRACT_KEYS) == {"message", "scenario", "planner_info",
                                              "check_passed", "check_failures"}
     assert summary["status"] == "stalled" and summary["planner"] == METHOD
     assert summary["planner_info"] == {"iterations": 12, "cond_max": 3.5}

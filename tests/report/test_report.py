@@ -18,7 +18,7 @@ import yaml
 from mmplan.errors import InputError
 from mmplan.robot import get_robot
 
-# Paper 000's three obstacles (SPEC section 2), with their influence neighbourhoods.
+# [PajakPajak]'s three obstacles (docs/conventions.md), with their influence neighbourhoods.
 PAPER_OBSTACLES: list[dict[str, Any]] = [
     {
         "shape": "superellipsoid",

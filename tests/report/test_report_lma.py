@@ -1,5 +1,5 @@
-"""Report figures of the manipulability-area planner (004 Figs. 3, 4, 5, 8) and of the tip
-vibration (003 Fig. 9): drawn from a real wall-segment plan and from small hand-made arrays,
+"""Report figures of the manipulability-area planner ([Nagatani] Figs. 3, 4, 5, 8) and of the
+tip vibration ([Pajak] Fig. 9): drawn from a real wall-segment plan and from small hand-made arrays,
 checked against the plan's own files and closed forms."""
 
 from __future__ import annotations

@@ -79,7 +79,7 @@ def test_markdown_table_has_one_row_per_reference_with_links(
     rows = md_table((out / "REPRODUCTION.md").read_text(), HEADER)
     refs = expected_refs(FAST)
     assert len(refs) >= 10 and len(rows) == len(refs)
-    assert {r.figure.split()[0] for r in refs} >= {"002", "004", "SPEC"}
+    assert {r.figure.split()[0] for r in refs} >= {"[JaniakTchon]", "[Nagatani]", "[RefRuns]"}
     for cells, ref in zip(rows, refs, strict=True):
         assert len(cells) == len(HEADER)
         assert cells[0] == ref.figure and cells[1].startswith(ref.quantity)
@@ -109,7 +109,7 @@ def test_our_values_come_from_the_written_summaries(fast_repro: tuple[Path, Resu
     assert start[3] == fmt_value(tuple(wall["start_xy"]), "m")
     assert start[4] == f"{math.dist(wall['start_xy'], (0.27, 0.26)):.3g} m apart"
     assert rows["a straight base segment exists in the LMA"][3] == wall["path_kind"]
-    # SPEC s.6: the free car steers far beyond pi/2 (6.57 rad in SPEC's reference)
+    # the free car steers far beyond pi/2 (6.57 rad in the reference runs [RefRuns])
     assert rows["max |psi| without bounds"][5] in ("holds", "matches")
 
 
@@ -184,14 +184,65 @@ def test_run_selection_and_variants() -> None:
     assert picked == ["diffdrive3-track", "diffdrive3-track-no-obstacle-term", "wall-segment"]
 
 
-def test_scenarios_are_the_spec_table_and_built_in() -> None:
-    spec = (Path(__file__).parents[1] / "../shared/SPEC.md").resolve()
+ROOT = Path(__file__).parents[2]
+PAPER_KEYS = ("PajakPajak", "AbdessemedDjebrani", "JaniakTchon", "Pajak", "Nagatani")
+
+
+def readme_methods() -> list[tuple[str, list[str]]]:
+    """(paper cell, built-in scenarios) of each row of the README's method table."""
+    rows = md_table((ROOT / "README.md").read_text(encoding="utf-8"),
+                    ("method (`planner.method`)", "paper", "what it plans", "built-in scenarios"))
+    return [(cells[1], re.findall(r"`([a-z0-9-]+)`", cells[3])) for cells in rows]
+
+
+def test_scenarios_are_the_built_in_paper_scenarios_of_the_readme() -> None:
+    """SCENARIOS: the README's built-in scenarios in its order, less those without published
+    numbers, each labelled with the paper (key, section) of its method's row."""
     names = list(SCENARIOS)
-    if spec.is_file():  # the SPEC section 8 table, in its order
-        table = re.findall(r"^\| `([a-z0-9-]+)`(?:, `([a-z0-9-]+)`)?(?:, `([a-z0-9-]+)`)? \|",
-                           spec.read_text(), flags=re.M)
-        assert [n for row in table for n in row if n] == names
     assert set(names) <= set(mmplan.builtin_scenarios())
+    table = readme_methods()
+    listed = [n for _, scenarios in table for n in scenarios]
+    assert set(listed) == set(mmplan.builtin_scenarios())
+    assert [n for n in listed if n in SCENARIOS] == names
+    measured = {run for r in REFERENCES for run in r.measure.runs}
+    for paper, scenarios in table:
+        for name in scenarios:
+            if name in SCENARIOS:
+                label = SCENARIOS[name]
+                assert re.fullmatch(rf"\[({'|'.join(PAPER_KEYS)})\]( s\.\d+)?", label), label
+                assert label in paper and name in measured, (name, label, paper)
+            else:  # a built-in extra with no published numbers
+                assert name not in measured
+
+
+def test_every_label_cites_a_paper_key_the_reference_runs_or_a_docs_page() -> None:
+    keys = "|".join((*PAPER_KEYS, "RefRuns"))
+    methods = {"extended-jacobian", "pseudoinverse", "impedance", "endogenous",
+               "manipulability-area"}
+    for ref in REFERENCES:
+        assert re.match(rf"\[({keys})\] |docs/[a-z_]+\.md$", ref.figure), ref.figure
+        cited = set(re.findall(r"\[([A-Z][A-Za-z]+)\]",  # "[s]" is a unit in a quote
+                               f"{ref.figure} {ref.quantity} {ref.source}"))
+        assert cited <= {*PAPER_KEYS, "RefRuns"}, ref
+        if ref.figure.startswith("[RefRuns]"):  # "[RefRuns] <method>", the run named
+            assert ref.figure.split()[1] in methods and "[RefRuns]" in ref.source, ref
+        elif ref.figure.startswith("docs/"):
+            assert ref.source.startswith(ref.figure), ref
+        text = f"{ref.figure} {ref.quantity} {ref.source} {ref.known_gap}"
+        assert not re.search(r"\b0{2}[0-4]\b", text), text  # papers by key, not by number
+
+
+def test_cited_docs_exist_and_define_the_keys() -> None:
+    """Every docs/ page the references cite exists; docs/references.md names every key."""
+    docs = ROOT / "docs"
+    if not docs.is_dir():
+        pytest.skip("no docs/ folder next to the sources")
+    texts = [f"{r.figure} {r.source} {r.known_gap}" for r in REFERENCES]
+    pages = {p for t in texts for p in re.findall(r"docs/[a-z_]+\.md", t)}
+    assert pages and all((ROOT / p).is_file() for p in pages), pages
+    references = (docs / "references.md").read_text(encoding="utf-8")
+    for key in (*PAPER_KEYS, "RefRuns"):
+        assert re.search(rf"\b{key}\b", references), key
 
 
 def test_variant_changes_only_its_planner_settings() -> None:
@@ -316,10 +367,10 @@ def test_missing_values_are_named(tmp_path: Path, summary: dict[str, Any], why: 
 
 
 def test_paper_numbers_are_the_printed_ones() -> None:
-    """The papers' seconds (000: 44.6 / 49.4, 003: 7.13 / 7.34) and their ratios."""
+    """The papers' seconds ([PajakPajak]: 44.6 / 49.4, [Pajak]: 7.13 / 7.34) and ratios."""
     by = {(r.figure, r.quantity): r.paper for r in REFERENCES}
     times = [v for (fig, q), v in by.items()
-             if fig in ("000 s.5", "003 s.5") and q.startswith("T(1 mm)")]
+             if fig in ("[PajakPajak] s.5", "[Pajak] s.5") and q.startswith("T(1 mm)")]
     assert times == [44.6, 49.4, 7.13, 7.34]
     ratios = [v for (fig, q), v in by.items() if q == "time added by the torque limits"]
     assert ratios == pytest.approx([0.1076, 0.0295], abs=1e-4)

@@ -71,7 +71,7 @@ def test_energy_balance_along_a_free_motion(name: str, rng: np.random.Generator)
     assert energy(x[: robot.n], x[robot.n :]) == pytest.approx(e0, abs=1e-6 * max(1.0, abs(e0)))
 
 
-def test_youbot_3r_gravity_torques_at_start_match_spec() -> None:
+def test_youbot_3r_gravity_torques_at_start_match_the_documented_ones() -> None:
     robot = get_robot("youbot-3r")
     q0 = np.array([0, -0.5, np.pi / 2, 0, 0, 0, -0.17, 0.35])
     tau = robot.actuator_efforts(q0, np.zeros(8), np.zeros(8))

@@ -33,8 +33,8 @@ def test_youbot_3r_matches_printed_closed_form(rng: np.random.Generator) -> None
     np.testing.assert_allclose(_batch_fk("youbot-3r", Q), expected, atol=1e-12)
 
 
-def test_youbot_3r_matches_paper_000_expanded_form(rng: np.random.Generator) -> None:
-    """The form as printed in 000 (with c_th12 = cos(-th+q1+q2) + cos(th-q1+q2), ...)."""
+def test_youbot_3r_matches_the_pajakpajak_expanded_form(rng: np.random.Generator) -> None:
+    """The form as printed in [PajakPajak] (with c_th12 = cos(-th+q1+q2) + cos(th-q1+q2), ...)."""
     Q = _random_q(rng, 8, 200)
     x, y, th, q1, q2, q3 = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 5], Q[:, 6], Q[:, 7]
     c123 = np.cos(-th + q1 + q2 + q3) + np.cos(th - q1 + q2 + q3)
@@ -72,13 +72,13 @@ def test_youbot_4r_start_position_and_manipulability() -> None:
     assert robot.manipulability(q0) == pytest.approx(0.0100, abs=5e-5)
 
 
-def test_youbot_3r_start_manipulability_matches_spec() -> None:
+def test_youbot_3r_start_manipulability_matches_the_reference_runs() -> None:
     robot = get_robot("youbot-3r")
     q0 = np.array([0, -0.5, np.pi / 2, 0, 0, 0, -0.17, 0.35])
     assert robot.manipulability(q0) == pytest.approx(0.00974, abs=5e-6)
 
 
-def test_car_rtr_matches_paper_002(rng: np.random.Generator) -> None:
+def test_car_rtr_matches_janiaktchon(rng: np.random.Generator) -> None:
     Q = _random_q(rng, 7, N_RANDOM)
     x, y, phi, x1, x2, x3 = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 4], Q[:, 5], Q[:, 6]
     reach = 0.5 + 0.5 * np.cos(x3)
@@ -88,7 +88,7 @@ def test_car_rtr_matches_paper_002(rng: np.random.Generator) -> None:
     np.testing.assert_allclose(_batch_fk("car-rtr", Q), expected, atol=1e-12)
 
 
-def test_diffdrive_3dof_matches_paper_001_eq_2(rng: np.random.Generator) -> None:
+def test_diffdrive_3dof_matches_abdessemeddjebrani_eq_2(rng: np.random.Generator) -> None:
     Q = _random_q(rng, 6, N_RANDOM)
     x, y, phi, t1, t2, t3 = Q.T
     reach = 0.4 * np.cos(t2) + 0.3 * np.cos(t2 + t3)
@@ -100,7 +100,7 @@ def test_diffdrive_3dof_matches_paper_001_eq_2(rng: np.random.Generator) -> None
     np.testing.assert_allclose(_batch_fk("diffdrive-3dof", Q), expected, atol=1e-12)
 
 
-def test_omni_3dof_matches_paper_001_eq_33(rng: np.random.Generator) -> None:
+def test_omni_3dof_matches_abdessemeddjebrani_eq_33(rng: np.random.Generator) -> None:
     Q = _random_q(rng, 6, N_RANDOM)
     x, y, th, q1, q2, q3 = Q.T
     a, b, a1, a2, a3 = 0.2, 0.0, 0.6, 0.4, 0.3
@@ -150,7 +150,8 @@ def test_collision_points_follow_the_platform(name: str) -> None:
 
 
 def test_base_6dof_pose_manipulability_matches_closed_form(rng: np.random.Generator) -> None:
-    """The tree's 6x6 tool-Jacobian measure equals 004's closed form a2 |s5| |d4 c3 + a3 s3| |r|."""
+    """The tree's 6x6 tool-Jacobian measure equals [Nagatani]'s closed form
+    a2 |s5| |d4 c3 + a3 s3| |r|."""
     from mmplan.robot.library.base_6dof_ik import PumaGeometry, manipulability
 
     robot = get_robot("base-6dof")

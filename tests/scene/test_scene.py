@@ -8,8 +8,8 @@ import pytest
 from mmplan.errors import InputError, UnknownNameError
 from mmplan.scene import Box, Cylinder, Scene, Sphere
 
-# Paper 000, section 5 (SPEC section 2): two cylinders and a sphere.
-PAPER_000 = [
+# [PajakPajak], section 5 (docs/conventions.md): two cylinders and a sphere.
+PAJAKPAJAK_OBSTACLES = [
     {
         "shape": "cylinder",
         "base_center": [0.15, 0.75, 0.0],
@@ -28,12 +28,12 @@ PAPER_000 = [
 ]
 
 
-def test_paper000_scene_and_its_planner_models() -> None:
-    scene = Scene.from_dicts(PAPER_000)
+def test_pajakpajak_scene_and_its_planner_models() -> None:
+    scene = Scene.from_dicts(PAJAKPAJAK_OBSTACLES)
     assert len(scene) == 3
-    assert scene.to_dicts() == PAPER_000
+    assert scene.to_dicts() == PAJAKPAJAK_OBSTACLES
     models = [o.superellipsoid() for o in scene.enlarged(0.05)]
-    # Table 1 of 000 (semi-axes before enlarging; the planner adds 0.05 m to each).
+    # [PajakPajak] Table 1 (semi-axes before enlarging; the planner adds 0.05 m to each).
     expected = [
         ((0.15, 0.75, 0.10), (0.30, 0.30, 0.15), (0.1, 1.0)),
         ((1.25, 0.70, 0.45), (0.20, 0.20, 0.20), (1.0, 1.0)),
@@ -72,7 +72,7 @@ def test_enlarged_and_iteration() -> None:
 
 
 def test_from_dicts_errors_name_the_item() -> None:
-    bad = [PAPER_000[0], {"shape": "sphere", "center": [0, 0, 0], "radius": -1}]
+    bad = [PAJAKPAJAK_OBSTACLES[0], {"shape": "sphere", "center": [0, 0, 0], "radius": -1}]
     with pytest.raises(InputError) as info:
         Scene.from_dicts(bad)
     assert info.value.field == "[1].radius"

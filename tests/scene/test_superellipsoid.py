@@ -1,5 +1,5 @@
 """Superellipsoid: implicit function, radial distance, symbolic forms and their gradients,
-exact distance against an independent brute-force reference, paper 000's obstacles."""
+exact distance against an independent brute-force reference, [PajakPajak]'s obstacles."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 from mmplan.scene import Cylinder, Sphere, Superellipsoid
 
-# (center, semi_axes, exponents, yaw): paper 000's cylinder model and other convex cases.
+# (center, semi_axes, exponents, yaw): [PajakPajak]'s cylinder model and other convex cases.
 CASES = [
     ((0.15, 0.75, 0.10), (0.25, 0.25, 0.10), (0.1, 1.0), 0.0),
     ((1.25, 0.70, 0.45), (0.15, 0.15, 0.15), (1.0, 1.0), 0.0),
@@ -162,8 +162,8 @@ def test_enlarged_grows_semi_axes_and_distance_monotone(rng: np.random.Generator
     assert np.all(big.radial_distance(points) < s.radial_distance(points))
 
 
-def test_paper000_cylinder_model_is_close_to_the_cylinder(rng: np.random.Generator) -> None:
-    """Table 1 of 000: the cylinder r 0.25, h 0.2 on (0.15, 0.75, 0) as a superellipsoid.
+def test_pajakpajak_cylinder_model_is_close_to_the_cylinder(rng: np.random.Generator) -> None:
+    """[PajakPajak] Table 1: the cylinder r 0.25, h 0.2 on (0.15, 0.75, 0) as a superellipsoid.
 
     Measured Hausdorff gap: model surface -> cylinder 5.2 mm, cylinder surface -> model
     7.3 mm (both at the rounded rim of the top and bottom caps).

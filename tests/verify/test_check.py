@@ -8,11 +8,10 @@ import numpy as np
 import pytest
 
 from mmplan import LinePath, Problem, Scenario, Trajectory, get_robot
-from mmplan.verify import check
-from mmplan.verify.check import DQ_REL_TOL
+from mmplan.verify.check import DQ_REL_TOL, check
 from tests.eta_planner import METHOD
 
-SPEC_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
+CONTRACT_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
              "final_error_m", "min_clearance_m", "max_joint_limit_violation",
              "max_torque_violation", "max_pfaffian_residual", "manipulability_start",
              "manipulability_end", "manipulability_min", "compute_time_s", "samples"]
@@ -70,7 +69,7 @@ def test_consistent_drive_passes_and_completion_times_match_closed_form() -> Non
     assert report.manipulability_end == pytest.approx(mus[-1], rel=1e-12)
     assert report.manipulability_min == pytest.approx(min(mus), rel=1e-12)
     summary = report.summary(status="reached", planner="x", compute_time_s=1.5)
-    assert list(summary) == SPEC_KEYS
+    assert list(summary) == CONTRACT_KEYS
     assert summary["samples"] == len(tr.t) and summary["robot"] == "youbot-3r"
 
 
@@ -127,7 +126,7 @@ def test_without_tau_columns_model_efforts_are_checked() -> None:
     robot = get_robot("youbot-3r")
     reference = np.array([robot.actuator_efforts(q, dq, ddq)
                           for q, dq, ddq in zip(tr.q, tr.dq, tr.ddq, strict=True)])
-    # SPEC section 1: gravity torques at this arm pose are 0, 0, 0, -8.98, -4.10 N m
+    # docs/conventions.md: gravity torques at this arm pose are 0, 0, 0, -8.98, -4.10 N m
     np.testing.assert_allclose(reference[0], [0, 0, 0, -8.98, -4.10], atol=0.01)
     report = check(tr, problem())  # default limits [-10, 0] and [-5, 0] hold
     assert report.torque_source == "model" and report.max_torque_violation == 0.0

@@ -1,9 +1,9 @@
-r"""Vibration of a compliant arm tip driven by a planned motion (paper 003's claim; SPEC s. 3).
+r"""Vibration of a compliant arm tip driven by a planned motion ([Pajak]'s claim).
 
-Paper 003 (section 6, Figs. 8-9) measures the arm-tip acceleration of a youBot and finds
-10-20 Hz vibrations excited by rapid changes of the platform velocity, smaller with its smooth
-generator (eq. (17)). This module quantifies that claim in simulation, as an analysis of a
-:class:`~mmplan.trajectory.Trajectory` (not a planner).
+[Pajak] (section 6, Figs. 8-9; see docs/extended_jacobian.md) measures the arm-tip acceleration
+of a youBot and finds 10-20 Hz vibrations excited by rapid changes of the platform velocity,
+smaller with its smooth generator (eq. (17)). This module quantifies that claim in simulation,
+as an analysis of a :class:`~mmplan.trajectory.Trajectory` (not a planner).
 
 Model: a tip mass m on an isotropic 3-D spring-damper (stiffness k, damping c) attached to the
 planned end-effector point p(t). With the deflection x = p_tip - p (3-vector),
@@ -53,7 +53,7 @@ from mmplan.trajectory import PlanResult, Trajectory
 
 Array = NDArray[np.float64]
 
-#: Defaults: a 15 Hz tip mode (paper 003 Fig. 9 shows 10-20 Hz), 3 % damping.
+#: Defaults: a 15 Hz tip mode ([Pajak] Fig. 9 shows 10-20 Hz), 3 % damping.
 FREQUENCY_HZ = 15.0
 DAMPING_RATIO = 0.03
 
@@ -184,7 +184,7 @@ def vibration_study(
     Args:
         trajectory: Planned motion (q, dq, ddq of ``robot``'s coordinates).
         robot: The robot that the trajectory belongs to (for the end-effector acceleration).
-        frequency_hz: Natural frequency of the tip mode [Hz] (paper 003: 10-20 Hz band).
+        frequency_hz: Natural frequency of the tip mode [Hz] ([Pajak]: 10-20 Hz band).
         damping_ratio: Damping ratio zeta of the tip mode.
         first_window: Length of the initial window for ``rms_first_second`` [s].
 

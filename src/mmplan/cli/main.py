@@ -61,9 +61,9 @@ def main() -> None:
       mmplan report run1                             # run1/report.html (figures, 3D)
       mmplan reproduce --out repro                   # all paper examples vs the papers
 
-    A scenario is a built-in name or a YAML file (see SPEC section 8). Exit codes:
-    0 success, 2 bad input, 3 planned but the task was not reached / check failed,
-    1 internal error.
+    Exit codes: 0 success, 2 bad input, 3 planned but the task was not reached / check
+    failed, 1 internal error. A scenario is a built-in name or a YAML file (see
+    docs/conventions.md).
     """
 
 
@@ -155,6 +155,9 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
             raise mmplan.ScenarioError(sc.source, exc.field, exc.problem) from None
         finally:
             bar.close()
+        from mmplan.analysis import analyse
+
+        result = analyse(result, problem)
         written = mmplan.write_plan(out_dir, result, problem, sc, fmt=fmt)
         summary = mmplan.read_summary(written)
         if not quiet:
@@ -180,7 +183,7 @@ def check_cmd(directory: Path) -> None:
     Recomputes from q alone: end effector by forward kinematics, clearance to the original
     obstacles by exact geometry, joint and torque limits, Pfaffian residual |A(q) dq|,
     dq against q, completion times T(1 cm), T(1 mm); checks that the status in
-    summary.json agrees with the task error and that every SPEC number in summary.json
+    summary.json agrees with the task error and that every checked number in summary.json
     agrees with the recomputed one (relative 1e-6). Example:
 
     \b
@@ -240,10 +243,11 @@ def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool,
                   names: tuple[str, ...]) -> None:
     """Plan every built-in paper scenario and compare our numbers with the papers'.
 
-    Writes OUT/<scenario>/ (plan and report.html) for each scenario of SPEC section 8 (and
+    Writes OUT/<scenario>/ (plan and report.html) for each built-in paper scenario (and
     the switched-off variants the references compare against), then OUT/REPRODUCTION.md and
     OUT/reproduction.html: paper figure | quantity | paper | ours | difference | verdict for
-    every number the papers publish and SPEC's reference numbers, each linked to its report.
+    every number the papers publish and the reference runs' numbers ([RefRuns], see
+    docs/references.md), each linked to its report.
     Examples:
 
     \b

@@ -1,11 +1,11 @@
-"""Writing and reading plan directories (SPEC section 8).
+"""Writing and reading plan directories (the contract of docs/conventions.md).
 
 A plan directory holds
 
 * ``trajectory.csv``: header + one row per sample, columns :meth:`Trajectory.columns`
   (``t, q.*, dq.*, ddq.*, [tau.*, u, extra], ee.x, ee.y, ee.z``), every value with 17
   significant digits (round-trips float64 exactly);
-* ``summary.json``: SPEC keys with values from the independent checker
+* ``summary.json``: the contract keys with values from the independent checker
   (:func:`mmplan.verify.check.check`), plus ``check_passed`` and ``check_failures`` (the checker's
   verdict, one line per failed check), ``message``, ``scenario`` and ``planner_info``;
   non-finite numbers are written as null;

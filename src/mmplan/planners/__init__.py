@@ -1,33 +1,85 @@
-"""Planning methods, one module each; :func:`get_planner` looks one up by method name."""
+"""Planning methods, one subpackage each, found by method name without importing them all.
+
+Each method package has a light ``settings.py`` (its settings models: the method names) and a
+``planner.py`` (the :class:`Planner` subclasses). :func:`methods` and :func:`settings_model`
+read only the settings modules; :func:`get_planner` imports the one planner module it needs.
+Planners registered at run time with :func:`register` (e.g. a user's own) are found too.
+"""
 
 from __future__ import annotations
 
-from mmplan.errors import UnknownNameError
-from mmplan.planners.base import Planner, register, registry
+from functools import cache
+from importlib import import_module
 
-# Importing a planner module registers it.
-# (planner modules are added here as they land)
-from mmplan.planners.endogenous import planner as endogenous
-from mmplan.planners.extended_jacobian import planner as extended_jacobian
-from mmplan.planners.manipulability_area import planner as manipulability_area
-from mmplan.planners.tracking import impedance, pseudoinverse
+from mmplan.errors import UnknownNameError
+from mmplan.planners.base import Planner, method_of, register, registry
 from mmplan.problem import PlannerSettings, Problem
 
-__all__ = ["Planner", "PlannerSettings", "Problem", "get_planner", "methods", "register"]
+__all__ = [
+    "PACKAGES",
+    "Planner",
+    "PlannerSettings",
+    "Problem",
+    "builtin_methods",
+    "get_planner",
+    "methods",
+    "register",
+    "settings_model",
+]
+
+#: The built-in method packages under :mod:`mmplan.planners`.
+PACKAGES = ("extended_jacobian", "tracking", "endogenous", "manipulability_area")
+
+
+@cache
+def _builtin() -> dict[str, tuple[str, type[PlannerSettings]]]:
+    """Method name -> (package, settings model), from the packages' settings modules."""
+    found: dict[str, tuple[str, type[PlannerSettings]]] = {}
+    for package in PACKAGES:
+        module = import_module(f"mmplan.planners.{package}.settings")
+        for value in vars(module).values():
+            if (
+                isinstance(value, type)
+                and issubclass(value, PlannerSettings)
+                and value.__module__ == module.__name__
+                and isinstance(value.model_fields["method"].default, str)
+            ):
+                found[method_of(value)] = (package, value)
+    return found
+
+
+def builtin_methods() -> list[str]:
+    """Names of the methods shipped with mmplan (one per settings model of :data:`PACKAGES`)."""
+    return sorted(_builtin())
 
 
 def methods() -> list[str]:
-    """Names of the available planning methods."""
-    return sorted(registry())
+    """Names of the available planning methods (built-in and registered)."""
+    return sorted(set(_builtin()) | set(registry()))
+
+
+def settings_model(method: str) -> type[PlannerSettings]:
+    """The settings model of ``method`` (imports no planner).
+
+    Raises:
+        UnknownNameError: no planner has that method name.
+    """
+    known = _builtin().get(method)
+    if known is not None:
+        return known[1]
+    return get_planner(method).settings_model
 
 
 def get_planner(method: str) -> type[Planner]:
-    """The planner class for ``method``.
+    """The planner class for ``method`` (imports its package's planner module).
 
     Raises:
         UnknownNameError: no planner has that method name.
     """
     found = registry().get(method)
+    if found is None and method in _builtin():
+        import_module(f"mmplan.planners.{_builtin()[method][0]}.planner")
+        found = registry().get(method)
     if found is None:
         raise UnknownNameError(
             "planner.method", f"unknown method {method!r}; choose one of {methods()}"

@@ -1,41 +1,142 @@
 """The planner template and the registry of planning methods.
 
-A method is a subpackage of :mod:`mmplan.planners` whose ``planner.py`` defines a settings
-model (a :class:`~mmplan.problem.PlannerSettings` subclass with a literal ``method``) and a
-:class:`Planner` subclass registered with :func:`register`.
+A method is a subpackage of :mod:`mmplan.planners`: its ``settings.py`` defines the settings
+model (a :class:`~mmplan.problem.PlannerSettings` subclass whose ``method`` field is a literal:
+the one place a method's name is written) and its ``planner.py`` a :class:`Planner` subclass
+registered with :func:`register`, which writes only :meth:`Planner._solve`.
 """
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from typing import Any, ClassVar, Generic, TypeVar
 
+import numpy as np
+from pydantic import ValidationError
+
+from mmplan.errors import InputError
 from mmplan.problem import PlannerSettings, Problem, Progress
-from mmplan.trajectory import PlanResult
+from mmplan.task import Task
+from mmplan.trajectory import PlanResult, Solution
 
-__all__ = ["Planner", "PlannerSettings", "Problem", "Progress", "register", "registry"]
+__all__ = [
+    "Planner",
+    "PlannerSettings",
+    "Problem",
+    "Progress",
+    "method_of",
+    "register",
+    "registry",
+]
+
+SettingsT = TypeVar("SettingsT", bound=PlannerSettings)
+TaskT = TypeVar("TaskT", bound=Task)
 
 
-class Planner(ABC):
-    """A planning method."""
+def method_of(settings_model: type[PlannerSettings]) -> str:
+    """The method name a settings model declares (the default of its ``method`` field)."""
+    default = settings_model.model_fields["method"].default
+    if not isinstance(default, str):
+        raise TypeError(f"{settings_model.__name__}.method needs a literal default")
+    return default
+
+
+class Planner(ABC, Generic[SettingsT, TaskT]):
+    """A planning method: :meth:`plan` is the template, a method writes :meth:`_solve`.
+
+    ``plan`` checks the settings and the goal kind, runs ``_solve``, reports progress 1.0 and
+    returns a :class:`~mmplan.trajectory.PlanResult` stamped with the method name and the
+    wall-clock compute time of the whole call.
+
+    Class attributes a method sets:
+        settings_model: Its settings model; ``method`` is derived from it.
+        task_type: The goal kind it plans (:mod:`mmplan.task`).
+        task_hint: How a scenario file states that goal, for the error message.
+    """
 
     method: ClassVar[str]
     settings_model: ClassVar[type[PlannerSettings]]
+    task_type: ClassVar[type[Task]]
+    task_hint: ClassVar[str]
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "settings_model" in cls.__dict__:
+            cls.method = method_of(cls.settings_model)
+
+    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+        """Plan ``problem``; always returns a result whose status says how it ended.
+
+        Raises:
+            InputError: settings of another method, or a goal kind this method does not plan,
+                or bad input the method detects before planning.
+        """
+        clock = time.perf_counter()
+        settings = self.settings(problem.settings)
+        robot = problem.robot
+        if np.shape(problem.start) != (robot.n,):
+            raise InputError(
+                "start", f"expected {robot.n} values {list(robot.coordinates)}, "
+                f"got shape {np.shape(problem.start)}"
+            )
+        task = problem.task
+        if not isinstance(task, self.task_type):
+            raise InputError(
+                "goal",
+                f"the {self.method} planner needs {self.task_hint}, got {type(task).__name__}",
+            )
+        solution = self._solve(problem, settings, task, progress)  # type: ignore[arg-type]
+        if progress is not None:
+            progress(1.0)
+        return PlanResult(
+            status=solution.status,
+            trajectory=solution.trajectory,
+            planner=self.method,
+            message=solution.message,
+            compute_time_s=time.perf_counter() - clock,
+            info=solution.info,
+            history=solution.history,
+            artifacts=solution.artifacts,
+        )
+
+    @classmethod
+    def settings(cls, settings: PlannerSettings) -> SettingsT:
+        """``settings`` as this method's model (validated from a plain PlannerSettings).
+
+        Raises:
+            InputError: settings of another method, or values the model rejects.
+        """
+        if isinstance(settings, cls.settings_model):
+            return settings  # type: ignore[return-value]
+        if settings.method != cls.method:
+            raise InputError(
+                "planner.method",
+                f"the {cls.method} planner was given settings of method {settings.method!r}",
+            )
+        try:
+            return cls.settings_model.model_validate(settings.model_dump())  # type: ignore[return-value]
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            key = ".".join(str(part) for part in first["loc"]) or "planner"
+            raise InputError(f"planner.{key}", first["msg"]) from None
 
     @abstractmethod
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
-        """Plan ``problem``; always returns a result whose status says how it ended."""
+    def _solve(
+        self, problem: Problem, settings: SettingsT, task: TaskT, progress: Progress
+    ) -> Solution:
+        """The method itself: plan ``problem`` with checked ``settings`` and ``task``."""
 
 
-_REGISTRY: dict[str, type[Planner]] = {}
+_REGISTRY: dict[str, type[Planner[Any, Any]]] = {}
 
 
-def register(cls: type[Planner]) -> type[Planner]:
+def register(cls: type[Planner[Any, Any]]) -> type[Planner[Any, Any]]:
     """Class decorator adding a planner to the registry under ``cls.method``."""
     _REGISTRY[cls.method] = cls
     return cls
 
 
-def registry() -> dict[str, type[Planner]]:
-    """Registered planners by method name."""
+def registry() -> dict[str, type[Planner[Any, Any]]]:
+    """Planners registered so far, by method name (see :mod:`mmplan.planners`)."""
     return dict(_REGISTRY)

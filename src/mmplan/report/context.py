@@ -29,7 +29,7 @@ from mmplan.task import (
 
 Array = NDArray[np.float64]
 
-#: Planner-setting keys that may hold the obstacle enlargement eps [m] (SPEC section 2).
+#: Planner-setting keys that may hold the obstacle enlargement eps [m] (docs/conventions.md).
 MARGIN_KEYS = ("margin", "obstacle_margin", "enlargement", "safety_margin")
 
 
@@ -147,7 +147,7 @@ def build_obstacles(
 
 
 def build_task(goal: Mapping[str, Any]) -> Task | None:
-    """The task of the scenario's ``goal`` section (SPEC section 8 forms), None if unknown."""
+    """The task of the scenario's ``goal`` section (docs/conventions.md forms), None if unknown."""
 
     def v3(values: Sequence[float]) -> tuple[float, float, float]:
         return (float(values[0]), float(values[1]), float(values[2]))

@@ -46,7 +46,7 @@ def new_figure(width: float = 7.0, height: float = 3.6) -> tuple[Figure, Axes]:
 
 
 def limit_line(ax: Axes, y: float, label: str | None = None) -> None:
-    """Dashed red horizontal line marking a limit (000's figure style)."""
+    """Dashed red horizontal line marking a limit ([PajakPajak]'s figure style)."""
     ax.axhline(y, color=LIMIT_COLOR, linestyle="--", linewidth=1.0, label=label)
 
 
@@ -58,7 +58,7 @@ def render(fig: Figure, name: str, title: str, caption: str) -> RenderedFigure:
 
 
 def mean_normalized(values: Array, lower: Array, upper: Array) -> tuple[Array, Array]:
-    """Mean normalization to [-0.5, 0.5] as in 000 Figs. 4, 6, 7.
+    """Mean normalization to [-0.5, 0.5] as in [PajakPajak] Figs. 4, 6, 7.
 
     Each column is mapped by x' = (x - (lo + hi)/2) / (hi - lo) so that its limits land on
     -0.5 and +0.5. Where a limit is infinite (or lo == hi) the column's own range stands in

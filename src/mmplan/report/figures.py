@@ -1,4 +1,4 @@
-"""Time-series figures of a plan, as papers 000 and 003 print them.
+"""Time-series figures of a plan, as [PajakPajak] and [Pajak] print them.
 
 Each function returns a :class:`RenderedFigure`, or None when the plan lacks the data
 (e.g. no obstacles, no efforts). :func:`time_figures` collects all that apply.
@@ -21,7 +21,7 @@ from mmplan.report.figure_kit import (
 
 
 def clearance_figure(ctx: ReportContext) -> RenderedFigure | None:
-    """Minimal distance robot-obstacle over time with the neighbourhoods (000 Figs. 3, 8)."""
+    """Minimal robot-obstacle distance over time with neighbourhoods ([PajakPajak] Figs. 3, 8)."""
     if not ctx.obstacles or not np.isfinite(ctx.clearance).any():
         return None
     fig, ax = new_figure()
@@ -44,13 +44,14 @@ def clearance_figure(ctx: ReportContext) -> RenderedFigure | None:
         "clearance",
         "Minimal distance between robot and obstacles",
         "Exact distance from the robot's collision points to each original obstacle; dashed "
-        "lines: influence neighbourhoods (enlargement + influence) as in 000 Figs. 3 and 8. "
+        "lines: influence neighbourhoods (enlargement + influence) as in [PajakPajak] Figs. 3 "
+        "and 8. "
         f"Minimum {lowest:.4f} m.",
     )
 
 
 def joints_figure(ctx: ReportContext) -> RenderedFigure | None:
-    """Mean-normalized arm joint angles with their limits at +-0.5 (000 Figs. 4, 9)."""
+    """Mean-normalized arm joint angles with their limits at +-0.5 ([PajakPajak] Figs. 4, 9)."""
     robot = ctx.robot
     if not robot.arm_indices:
         return None
@@ -70,13 +71,13 @@ def joints_figure(ctx: ReportContext) -> RenderedFigure | None:
         fig,
         "joints",
         "Normalized arm joint angles",
-        "(q - (q_min + q_max)/2) / (q_max - q_min): limits at +-0.5 (dashed red), as in 000 "
-        f"Figs. 4 and 9. Largest |normalized angle| {worst:.3f}.",
+        "(q - (q_min + q_max)/2) / (q_max - q_min): limits at +-0.5 (dashed red), as in "
+        f"[PajakPajak] Figs. 4 and 9. Largest |normalized angle| {worst:.3f}.",
     )
 
 
 def manipulability_figure(ctx: ReportContext) -> RenderedFigure:
-    """Arm manipulability mu(q) = sqrt(det(J_a J_a^T)) over time (000 Figs. 5, 10)."""
+    """Arm manipulability mu(q) = sqrt(det(J_a J_a^T)) over time ([PajakPajak] Figs. 5, 10)."""
     fig, ax = new_figure()
     ax.plot(ctx.t_dec, ctx.manipulability, color="tab:purple")
     ax.set_xlabel("t [s]")
@@ -87,7 +88,7 @@ def manipulability_figure(ctx: ReportContext) -> RenderedFigure:
         "manipulability",
         "Arm manipulability",
         f"Yoshikawa measure of the arm, recomputed from q: start {mu[0]:.5f}, "
-        f"end {mu[-1]:.5f}, min {np.min(mu):.5f} (000 Figs. 5 and 10).",
+        f"end {mu[-1]:.5f}, min {np.min(mu):.5f} ([PajakPajak] Figs. 5 and 10).",
     )
 
 
@@ -129,7 +130,8 @@ def _torque_figure(ctx: ReportContext, arm: bool) -> RenderedFigure | None:
         fig,
         "torques_arm" if arm else "torques_wheels",
         f"Normalized {part} torques",
-        f"Mean-normalized {part} efforts, limits at +-0.5 (000 Figs. 6-7, 11-12; 003 Fig. 5). "
+        f"Mean-normalized {part} efforts, limits at +-0.5 ([PajakPajak] Figs. 6-7, 11-12; "
+        "[Pajak] Fig. 5). "
         f"Largest |normalized torque| within limits columns: {worst:.3f} (> 0.5 is a violation).",
     )
 
@@ -145,7 +147,7 @@ def arm_torques_figure(ctx: ReportContext) -> RenderedFigure | None:
 
 
 def virtual_control_figure(ctx: ReportContext) -> RenderedFigure | None:
-    """Virtual control u(t) (000 eq. 21 / 003 Fig. 7)."""
+    """Virtual control u(t) ([PajakPajak] eq. 21, [Pajak] Fig. 7)."""
     if ctx.plan.u is None:
         return None
     fig, ax = new_figure(height=3.0)
@@ -157,12 +159,12 @@ def virtual_control_figure(ctx: ReportContext) -> RenderedFigure | None:
         fig,
         "virtual_control",
         "Virtual control u(t)",
-        "Scaling of the feedback that keeps the efforts inside the safety zone (003 Fig. 7).",
+        "Scaling of the feedback that keeps the efforts inside the safety zone ([Pajak] Fig. 7).",
     )
 
 
 def extra_columns_figure(ctx: ReportContext) -> RenderedFigure | None:
-    """Further trajectory columns (e.g. platform controls u1, u2 of paper 002)."""
+    """Further trajectory columns (e.g. platform controls u1, u2 of [JaniakTchon])."""
     extra = {k: v for k, v in ctx.plan.extra.items() if np.isfinite(v).any()}
     if not extra:
         return None

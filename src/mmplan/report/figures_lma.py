@@ -1,16 +1,16 @@
-"""Figures of the manipulability-area planner (paper 004, Figs. 3, 4, 5 and 8).
+"""Figures of the manipulability-area planner ([Nagatani], Figs. 3, 4, 5 and 8).
 
 * ``lma_distribution``: the manipulability distribution of the first layer as a surface over
-  the base position (x, y), with the threshold plane (004 Fig. 3);
+  the base position (x, y), with the threshold plane ([Nagatani] Fig. 3);
 * ``lma_ring``: the manipulability area of the first and the last layer from above, a filled
-  ring, with the task point and the wall (004 Fig. 4);
+  ring, with the task point and the wall ([Nagatani] Fig. 4);
 * ``lma_layers_3d``: the layered manipulability areas, every layer's MA boundary at its task
   parameter s, with the chosen base path through the layers and its sub-goals, from two
-  viewpoints (004 Figs. 5, 8);
+  viewpoints ([Nagatani] Figs. 5, 8);
 * ``lma_top_view``: every MA overlaid from above (cells coloured by the number of layers whose
   MA holds them) with the base path.
 
-Manipulability is shown in 10^-3 m^3 (SPEC section 7 gives w in m^3).
+Manipulability is shown in 10^-3 m^3 (docs/manipulability_area.md gives w in m^3).
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def _surface_with_plane(
 
 
 def distribution_figure(data: LmaData) -> RenderedFigure:
-    """004 Fig. 3: w of the first layer over the base position, with the threshold plane."""
+    """[Nagatani] Fig. 3: w of the first layer over the base position, with the threshold plane."""
     fig = Figure(figsize=(7.6, 5.8), dpi=DPI, layout="constrained")
     ax: Axes3D = fig.add_subplot(projection="3d")
     sx, sy = _crop(data, 0.1)
@@ -127,7 +127,7 @@ def distribution_figure(data: LmaData) -> RenderedFigure:
     return render(
         fig,
         "lma_distribution",
-        "Manipulability distribution (004 Fig. 3)",
+        "Manipulability distribution ([Nagatani] Fig. 3)",
         f"w of the arm for the first tool pose as a function of the base position; red plane: "
         f"the threshold {data.threshold:.4g} m^3 (max of w over the layer "
         f"{data.w_first.max():.4g} m^3). Bases where the surface rises above the plane form "
@@ -191,7 +191,7 @@ def _ring_panel(
 
 
 def ring_figure(data: LmaData) -> RenderedFigure:
-    """004 Fig. 4: the MA of the first and the last layer from above, filled with w."""
+    """[Nagatani] Fig. 4: the MA of the first and the last layer from above, filled with w."""
     layers = [0, data.layers - 1]
     ws = [data.w_first, data.w_last]
     boxes = [data.bounds(0.08, layer) for layer in layers]
@@ -214,7 +214,7 @@ def ring_figure(data: LmaData) -> RenderedFigure:
     return render(
         fig,
         "lma_ring",
-        "Manipulability area of the first and last layer (004 Fig. 4)",
+        "Manipulability area of the first and last layer ([Nagatani] Fig. 4)",
         f"Bases whose w reaches the threshold {data.threshold:.4g} m^3 (coloured by w), the "
         "tool's task point (star), the wall (hatched) and the planned base position (circle).",
     )

@@ -1,7 +1,7 @@
-"""Layered manipulability areas (paper 004, Figs. 5 and 8) and their top view.
+"""Layered manipulability areas ([Nagatani], Figs. 5 and 8) and their top view.
 
 * ``lma_layers_3d``: every layer's MA boundary at its task parameter s, with the chosen base
-  path through the layers and its sub-goals, from two viewpoints (004 Figs. 5, 8);
+  path through the layers and its sub-goals, from two viewpoints ([Nagatani] Figs. 5, 8);
 * ``lma_top_view``: every MA overlaid from above (cells coloured by the number of layers whose
   MA holds them), the first and last layer's MA, the wall, the tool's stroke and the base path.
 """
@@ -94,7 +94,7 @@ def _path_3d(ax: Axes3D, data: LmaData) -> None:
 
 
 def layers_figure(data: LmaData) -> RenderedFigure:
-    """004 Figs. 5 and 8: the MA boundaries stacked along s with the base path, two views."""
+    """[Nagatani] Figs. 5 and 8: the MA boundaries stacked along s with the base path, two views."""
     fig = Figure(figsize=(11.0, 5.4), dpi=DPI, layout="constrained")
     cmap = mpl.colormaps["viridis"]
     norm = Normalize(float(data.s[0]), float(data.s[-1]))
@@ -135,7 +135,7 @@ def layers_figure(data: LmaData) -> RenderedFigure:
     return render(
         fig,
         "lma_layers_3d",
-        "Layered manipulability areas with the base path (004 Figs. 5, 8)",
+        "Layered manipulability areas with the base path ([Nagatani] Figs. 5, 8)",
         "Boundary of every layer's MA at its task parameter s (thick: first and last layer), "
         f"the planned base path through the layers (black; {kind}"
         + (

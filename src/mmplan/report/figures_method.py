@@ -1,10 +1,10 @@
 """Method-specific figures from history.csv and artifacts.npz.
 
 * history.csv: every column against ``iteration`` (e.g. the endogenous method's error norm,
-  002), log scale when positive and spanning decades;
-* artifacts.npz of the manipulability-area planner (004): the distribution surface, the MA
-  ring, the layered MAs in 3D with the base path and their top view
-  (:mod:`mmplan.report.figures_lma`); a tip-vibration spectrum (003,
+  [JaniakTchon]), log scale when positive and spanning decades;
+* artifacts.npz of the manipulability-area planner ([Nagatani]): the distribution surface, the
+  MA ring, the layered MAs in 3D with the base path and their top view
+  (:mod:`mmplan.report.figures_lma`); a tip-vibration spectrum ([Pajak],
   :mod:`mmplan.report.figures_vibration`);
 * any other arrays, drawn generically by name and shape: 1-D arrays against an axis of the
   same length whose name contains ``freq`` (spectra) or ``time``; 2-D grids as images (axes
@@ -60,7 +60,7 @@ def history_figure(history: Mapping[str, Array]) -> RenderedFigure | None:
         fig,
         "history",
         "Convergence per iteration",
-        f"Columns of history.csv over the iterations (002 error norm); last: {text}.",
+        f"Columns of history.csv over the iterations ([JaniakTchon] error norm); last: {text}.",
     )
 
 
@@ -133,8 +133,9 @@ def _draw_grid(
 
 
 def artifact_figures(artifacts: Mapping[str, Array]) -> list[RenderedFigure]:
-    """The method's figures: the manipulability-area figures (004) and the vibration spectrum
-    (003) when artifacts.npz holds their data, the generic drawing for everything else."""
+    """The method's figures: the manipulability-area figures ([Nagatani]) and the vibration
+    spectrum ([Pajak]) when artifacts.npz holds their data, the generic drawing for everything
+    else."""
     arrays = {k: np.asarray(v) for k, v in artifacts.items() if np.asarray(v).dtype.kind in "fiub"}
     out: list[RenderedFigure] = []
     lma = read_lma(arrays)
@@ -229,7 +230,7 @@ def _series_figures(arrays: Mapping[str, Array], used: set[str]) -> list[Rendere
                 f"artifact_{axis_name}",
                 f"{title} (artifacts.npz)",
                 f"{', '.join(ys)} against {axis_name}"
-                + (" (003 Fig. 9: tip-acceleration spectrum)." if spectral else "."),
+                + (" ([Pajak] Fig. 9: tip-acceleration spectrum)." if spectral else "."),
             )
         )
         used.update(ys)

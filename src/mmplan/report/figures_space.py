@@ -1,8 +1,8 @@
 """Spatial figures: end-effector and platform paths seen from above, with the obstacles.
 
-Mirrors 000 Fig. 2, 003 Fig. 6 and 001 Figs. 4, 10: the paths in the x-y plane, obstacle
-outlines (horizontal cross-sections of their superellipsoid models), the influence
-neighbourhoods dashed, and a few snapshots of the robot's links.
+Mirrors [PajakPajak] Fig. 2, [Pajak] Fig. 6 and [AbdessemedDjebrani] Figs. 4, 10: the paths in
+the x-y plane, obstacle outlines (horizontal cross-sections of their superellipsoid models), the
+influence neighbourhoods dashed, and a few snapshots of the robot's links.
 """
 
 from __future__ import annotations
@@ -96,12 +96,12 @@ def top_view_figure(ctx: ReportContext) -> RenderedFigure:
         "Paths seen from above",
         "End-effector and platform paths in the x-y plane with obstacle cross-sections "
         "(filled) and influence neighbourhoods (dashed); grey: the links at "
-        f"{len(snaps)} instants (000 Fig. 2, 003 Fig. 6).",
+        f"{len(snaps)} instants ([PajakPajak] Fig. 2, [Pajak] Fig. 6).",
     )
 
 
 def coordinate_bounds(ctx: ReportContext) -> dict[str, tuple[float, float]]:
-    """State bounds named in the planner settings (``bounds: [{coordinate, min, max}]``, 002)."""
+    """Planner-setting state bounds, ``bounds: [{coordinate, min, max}]`` ([JaniakTchon])."""
     planner = ctx.plan.scenario.get("planner") or {}
     found: dict[str, tuple[float, float]] = {}
     for item in planner.get("bounds") or []:
@@ -111,7 +111,10 @@ def coordinate_bounds(ctx: ReportContext) -> dict[str, tuple[float, float]]:
 
 
 def platform_figure(ctx: ReportContext) -> RenderedFigure:
-    """Platform coordinates over time, one panel each, with planner bounds (002, 001 Fig. 8)."""
+    """Platform coordinates over time, one panel each, with planner bounds.
+
+    As in [JaniakTchon] and [AbdessemedDjebrani] Fig. 8.
+    """
     robot, plan = ctx.robot, ctx.plan
     names = robot.platform_coordinates
     bounds = coordinate_bounds(ctx)

@@ -1,4 +1,4 @@
-"""Tip-vibration figure (paper 003 Figs. 8, 9): acceleration spectrum and its time series.
+"""Tip-vibration figure ([Pajak] Figs. 8, 9): acceleration spectrum and its time series.
 
 Drawn from the arrays :func:`mmplan.analysis.vibration.vibration_artifacts` writes to artifacts.npz:
 ``vibration_freq_hz`` (F,) with ``vibration_amplitude`` (F,) (root-sum-square over the axes)
@@ -115,9 +115,9 @@ def vibration_figure(arrays: Mapping[str, np.ndarray]) -> RenderedFigure | None:
         axes[1].grid(True, alpha=0.3)
         axes[1].set_title("Magnitude of the tip's vibration acceleration over time", fontsize=10)
     caption = (
-        f"One-sided amplitude spectrum of the tip's vibration acceleration (003 Fig. 9); "
+        f"One-sided amplitude spectrum of the tip's vibration acceleration ([Pajak] Fig. 9); "
         f"largest component at {freq[peak]:.2f} Hz"
         + (f"; RMS over the record {rms:.4g} m/s^2" if rms is not None else "")
-        + ("; below: its magnitude over time (003 Fig. 8)." if timed else ".")
+        + ("; below: its magnitude over time ([Pajak] Fig. 8)." if timed else ".")
     )
-    return render(fig, "vibration_spectrum", "Tip vibration (003 Figs. 8, 9)", caption)
+    return render(fig, "vibration_spectrum", "Tip vibration ([Pajak] Figs. 8, 9)", caption)

@@ -72,7 +72,7 @@ def _rows_html(rows: Sequence[tuple[str, str, str]]) -> str:
 
 
 def summary_table(summary: Mapping[str, Any]) -> str:
-    """HTML tables: the summary keys (SPEC section 8) and further scalar keys, then the
+    """HTML tables: the summary keys (docs/conventions.md) and further scalar keys, then the
     planner's own numbers (``planner_info``) beside them."""
     rows = []
     for key, label, unit in SUMMARY_ROWS:

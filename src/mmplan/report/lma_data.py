@@ -3,8 +3,8 @@
 Reads and checks the arrays the planner writes (``mmplan.planners.manipulability_area.result``):
 the base grid
 axes, the manipulability distribution of the first and last layer, the stack of MA masks
-(layers, nx, ny), the base path per layer and the threshold. The figures of 004 (Figs. 3, 4,
-5, 8) are drawn from this record by :mod:`mmplan.report.figures_lma`.
+(layers, nx, ny), the base path per layer and the threshold. The figures of [Nagatani] (Figs. 3,
+4, 5, 8) are drawn from this record by :mod:`mmplan.report.figures_lma`.
 """
 
 from __future__ import annotations
@@ -111,9 +111,10 @@ class LmaData:
         """The wall's trace in the x-y plane: a point on it and its unit normal pointing to
         the base side, or None when the tool's x-y points do not define a vertical wall.
 
-        The task surface is the vertical plane through the tool points (004: a segment drawn
-        on a wall); its horizontal direction is that of the tool's x-y displacement, or, for a
-        vertical stroke, the one orthogonal to the direction from the tool to the MA cells.
+        The task surface is the vertical plane through the tool points ([Nagatani]: a segment
+        drawn on a wall); its horizontal direction is that of the tool's x-y displacement, or,
+        for a vertical stroke, the one orthogonal to the direction from the tool to the MA
+        cells.
         """
         if self.tool is None:
             return None

@@ -1,4 +1,4 @@
-"""Reading a plan directory (SPEC section 8) for the report: plain files, no planner code.
+"""Reading a plan directory (docs/conventions.md) for the report: plain files, no planner code.
 
 A plan directory holds ``trajectory.csv``, ``summary.json``, ``scenario.yaml`` and optionally
 ``history.csv`` (per-iteration series) and ``artifacts.npz`` (method data, e.g. grids).
@@ -122,7 +122,7 @@ def _prefixed(columns: Mapping[str, Array], prefix: str) -> tuple[tuple[str, ...
 def parse_trajectory(
     columns: Mapping[str, Array], source: str = "trajectory.csv"
 ) -> dict[str, Any]:
-    """Split trajectory.csv columns into t, q, dq, ddq, tau, u, extra, ee (SPEC section 8)."""
+    """Split trajectory.csv columns into t, q, dq, ddq, tau, u, extra, ee (docs/conventions.md)."""
     for key in ("t", "ee.x", "ee.y", "ee.z"):
         if key not in columns:
             raise InputError(f"{source}:{key}", "missing column")

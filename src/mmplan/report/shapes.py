@@ -1,6 +1,6 @@
 """Drawable outlines of obstacles, sampled from their superellipsoid models.
 
-Every obstacle offers a superellipsoid (SPEC section 2) with an inside-outside function F
+Every obstacle offers a superellipsoid (docs/conventions.md) with an inside-outside function F
 (F < 1 inside, F = 1 on the surface). A superellipsoid is star-shaped about its centre, so
 the surface point along a ray from the centre is found by bisection on F along the ray; this
 needs nothing but ``implicit(points)`` and ``center``.

@@ -20,6 +20,7 @@ from typing import Any
 
 import yaml
 
+from mmplan.analysis import analyse
 from mmplan.errors import InputError, MmplanError
 from mmplan.io.plan_folder import write_plan
 from mmplan.planners import get_planner
@@ -133,7 +134,7 @@ def plan_run(spec: RunSpec, out_dir: Path,
         sc = load_run(spec)
         problem = sc.build()
         result = get_planner(sc.method)().plan(problem, progress=progress)
-        write_plan(folder, result, problem, sc)
+        write_plan(folder, analyse(result, problem), problem, sc)
         status, message = result.status.value, result.message
     except MmplanError as exc:
         status, message = "error", str(exc)

@@ -80,9 +80,10 @@ def markdown(runs: Sequence[RunOutcome], rows: Sequence[Evaluated], wall_s: floa
         "# Reproduction of the papers' numbers", "",
         f"`mmplan reproduce` (mmplan {mmplan.__version__}, "
         f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC): {len(runs)} runs in {wall_s:.0f} s "
-        "wall time. Paper values and SPEC's reference numbers are data in "
-        "`mmplan/paper_figures.py`; ours are read from each run's summary.json, scenario.yaml "
-        "and trajectory.csv. Each quantity links to the run's report.", "",
+        "wall time. Paper values (papers cited by their keys in docs/references.md) and the "
+        "values of the reference runs [RefRuns] are data in `mmplan/reproduce/published.py`; "
+        "ours are read from each run's summary.json, scenario.yaml and trajectory.csv. Each "
+        "quantity links to the run's report.", "",
         "| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER),
     ]
     for row in rows:

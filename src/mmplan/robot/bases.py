@@ -3,10 +3,10 @@ r"""Platform kinds: their coordinates, joints, Pfaffian constraints and actuatio
 A platform contributes the first coordinates of q, the joints that place its body
 ``"platform"`` in the world (planar x, y and heading, plus wheels or steering), and
 
-* the Pfaffian matrix A(q) (h, n_p) with A(q) dq_p = 0 (eq. (4) of 000),
+* the Pfaffian matrix A(q) (h, n_p) with A(q) dq_p = 0 ([PajakPajak] eq. (4)),
 * the actuation matrix B (n_p, n_a) mapping actuator efforts to generalized forces,
 * a basis N(q) (n_p, n_p - h) of ker A, chosen with N^T B invertible so that
-  tau = (N^T B)^{-1} N^T (M ddq + c) (eq. (20) of 000) is well defined.
+  tau = (N^T B)^{-1} N^T (M ddq + c) ([PajakPajak] eq. (20)) is well defined.
 
 The platform frame sits on the ground (z = 0) below the platform centre, x forward.
 """
@@ -80,12 +80,13 @@ class Platform(ABC):
 
 @dataclass(frozen=True)
 class DifferentialDrive(Platform):
-    """(2,0) platform with two driven wheels, wheel angles as coordinates (youBot, 000/003).
+    """(2,0) platform with two driven wheels, wheel angles as coordinates (youBot).
 
-    q_p = (x, y, theta, phi1, phi2); phi1 is the left wheel (at +d), phi2 the right one.
-    Pfaffian rows (000 section 5): left wheel rolls ``v - d dtheta = r dphi1``, right wheel
-    rolls ``v + d dtheta = r dphi2``, no lateral slip. Paper 003's eq. (25) swaps the
-    wheel labels; we keep 000's convention for every differential drive.
+    The youBot of [PajakPajak] and [Pajak]. q_p = (x, y, theta, phi1, phi2); phi1 is the left
+    wheel (at +d), phi2 the right one.
+    Pfaffian rows ([PajakPajak] section 5): left wheel rolls ``v - d dtheta = r dphi1``, right
+    wheel rolls ``v + d dtheta = r dphi2``, no lateral slip. [Pajak] eq. (25) swaps the wheel
+    labels; we keep [PajakPajak]'s convention for every differential drive.
     """
 
     wheel_radius: float
@@ -149,10 +150,11 @@ class DifferentialDrive(Platform):
 
 @dataclass(frozen=True)
 class UnicycleDrive(Platform):
-    """(2,0) platform without wheel coordinates (paper 001 section 2): q_p = (x, y, phi).
+    """(2,0) platform without wheel coordinates: q_p = (x, y, phi).
 
-    One Pfaffian row, no lateral slip: ``sin(phi) dx - cos(phi) dy = 0`` (eq. (2) of 001).
-    Actuators are the forward force and the yaw torque, so B = N.
+    [AbdessemedDjebrani] section 2. One Pfaffian row, no lateral slip:
+    ``sin(phi) dx - cos(phi) dy = 0`` ([AbdessemedDjebrani] eq. (2)). Actuators are the forward
+    force and the yaw torque, so B = N.
     """
 
     body: Inertial
@@ -182,7 +184,7 @@ class UnicycleDrive(Platform):
 
 @dataclass(frozen=True)
 class KinematicCar(Platform):
-    """Kinematic car (paper 002 section III): q_p = (x, y, phi, psi), psi front steering.
+    """Kinematic car ([JaniakTchon] section III): q_p = (x, y, phi, psi), psi front steering.
 
     Motion ``dx = u1 cos(phi) cos(psi)``, ``dy = u1 sin(phi) cos(psi)``,
     ``dphi = u1 sin(psi) / L``, ``dpsi = u2``; the two Pfaffian rows say that neither the
@@ -237,9 +239,10 @@ class KinematicCar(Platform):
 
 @dataclass(frozen=True)
 class Omnidirectional(Platform):
-    """Omnidirectional platform (paper 001 section 3): q_p = (x, y, theta), no constraints.
+    """Omnidirectional platform: q_p = (x, y, theta), no constraints.
 
-    Actuators are generalized forces along world x, y and the yaw torque (B = N = I).
+    [AbdessemedDjebrani] section 3. Actuators are generalized forces along world x, y and the yaw
+    torque (B = N = I).
     """
 
     body: Inertial

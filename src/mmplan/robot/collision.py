@@ -1,7 +1,7 @@
 """Collision models: points (spheres of radius 0) on platform boxes and along links.
 
-Papers 000/003 discretize the platform and the links into points at a given spacing
-(0.14 m in 000's example); distances are then taken from those points to obstacles.
+[PajakPajak] and [Pajak] discretize the platform and the links into points at a given spacing
+(0.14 m in [PajakPajak]'s example); distances are then taken from those points to obstacles.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ For generalized coordinates q (n,) the unconstrained equations of motion are
 
 with J_{v,b} = d p_{com,b}/dq (3, n), J_{\omega,b} the angular-velocity Jacobian
 (columns vee(dR_b/dq_i R_b^T)), V the gravity potential and f optional joint friction.
-This is eq. (2) of 000 (Pajak & Pajak) without the constraint term A^T lambda, which the
+This is [PajakPajak] eq. (2) without the constraint term A^T lambda, which the
 planners add. The result is checked against Pinocchio's CRBA/RNEA in the tests.
 """
 

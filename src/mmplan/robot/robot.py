@@ -8,10 +8,10 @@ Symbols (all expressions in the generalized coordinates q (n,), platform part fi
 * k(q) end-effector position (3,), J = dk/dq (3, n), J_a its arm columns (3, n_a);
 * A(q) Pfaffian matrix (h, n), N(q) basis of ker A (n, n - h), B(q) actuation (n, n - h);
 * M(q) (n, n), c(q, dq) (n,) from :mod:`mmplan.robot.dynamics`;
-* manipulability mu(q) = sqrt(det(J_a J_a^T)) (Yoshikawa; eq. (5) of 000), with J_a the
+* manipulability mu(q) = sqrt(det(J_a J_a^T)) (Yoshikawa; [PajakPajak] eq. (5)), with J_a the
   arm's position Jacobian, or its full 6-row tool Jacobian for ``EndEffector(manipulability=
-  "pose")`` (paper 004);
-* actuator efforts tau = (N^T B)^{-1} N^T (M ddq + c) (eq. (20) of 000): the efforts that
+  "pose")`` ([Nagatani]);
+* actuator efforts tau = (N^T B)^{-1} N^T (M ddq + c) ([PajakPajak] eq. (20)): the efforts that
   realise ddq when the constraint forces A^T lambda are eliminated (N^T A^T = 0).
 """
 
@@ -39,7 +39,7 @@ Array = NDArray[np.float64]
 class CollisionSphere:
     """A collision sphere fixed to a body: ``center`` in the body frame [m], ``radius`` [m].
 
-    A radius of 0 is a collision point (papers 000/003 discretize links into points).
+    A radius of 0 is a collision point ([PajakPajak] and [Pajak] discretize links into points).
     """
 
     body: str
@@ -72,8 +72,9 @@ class EndEffector:
     """End-effector point: ``offset`` [m] in the frame of ``body``.
 
     ``manipulability`` selects the arm Jacobian of the measure mu = sqrt(det(J_a J_a^T)):
-    ``"position"`` (3, n_arm), the measure of papers 000/003 for a point task, or ``"pose"``
-    (6, n_arm: linear and angular velocity of the tool), paper 004's measure for a 6-dof arm.
+    ``"position"`` (3, n_arm), the measure of [PajakPajak] and [Pajak] for a point task, or
+    ``"pose"`` (6, n_arm: linear and angular velocity of the tool), [Nagatani]'s measure for a
+    6-dof arm.
     """
 
     body: str
@@ -313,7 +314,7 @@ class Robot:
         return np.array([s.radius for s in self.collision], dtype=float)
 
     def actuator_efforts(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> Array:
-        """tau = (N^T B)^-1 N^T (M ddq + c) (eq. (20) of 000), (n_act,)."""
+        """tau = (N^T B)^-1 N^T (M ddq + c) ([PajakPajak] eq. (20)), (n_act,)."""
         out = self._call("tau", self._q(q), self._q(dq, "dq"), self._q(ddq, "ddq"))
         return out.reshape(len(self.actuators))
 

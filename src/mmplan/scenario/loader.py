@@ -1,6 +1,6 @@
 """Scenario files: loading, validation against the robot and planner, building a Problem.
 
-A scenario file (YAML, SPEC section 8; schema in :mod:`mmplan.scenario.schema`) names a
+A scenario file (YAML, docs/conventions.md; schema in :mod:`mmplan.scenario.schema`) names a
 built-in robot, a start configuration, a goal, obstacles, optional limits and the planner
 settings. :func:`load_scenario` validates everything that can be known before planning and
 raises :class:`ScenarioError` (an :class:`~mmplan.errors.InputError`, exit code 2) whose
@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from pydantic import ValidationError
 
 from mmplan.errors import InputError, MmplanError
-from mmplan.planners import get_planner, methods
+from mmplan.planners import methods, settings_model
 from mmplan.problem import PlannerSettings, Problem
 from mmplan.robot import Limits, Robot, get_robot
 from mmplan.scenario.parse import ScenarioError, parse_yaml, validation_error
@@ -224,7 +224,7 @@ def _settings(planner: Mapping[str, Any], source: str, required: bool) -> Planne
     if not required and method not in methods():
         # Unvalidated record of the settings (extra keys kept) for a method not installed here.
         return PlannerSettings.model_construct(**dict(planner))
-    model = get_planner(method).settings_model
+    model = settings_model(method)
     try:
         return model.model_validate(dict(planner))
     except ValidationError as exc:

@@ -110,7 +110,7 @@ class ObstacleSpec(Strict):
 
 
 class SuperellipsoidSpec(ObstacleSpec):
-    """Barr superellipsoid (SPEC section 2): centre, semi-axes [m], exponents (e1, e2), yaw."""
+    """Barr superellipsoid (docs/conventions.md): centre, semi-axes [m], exponents (e1, e2), yaw."""
 
     shape: Literal["superellipsoid"]
     center: Vec3

@@ -1,4 +1,4 @@
-"""Obstacles and scenes (SPEC section 2).
+"""Obstacles and scenes (docs/conventions.md).
 
 Shapes: :class:`Superellipsoid` (Barr; the smooth model all planners use), :class:`Sphere`,
 :class:`Cylinder` (vertical), :class:`Box` (yawed). Each gives an exact signed distance for

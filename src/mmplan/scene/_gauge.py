@@ -1,8 +1,8 @@
 r"""Numerics of the Barr superellipsoid: gauge function and exact point-to-surface distance.
 
 In local, per-axis scaled coordinates u = p' / a (p' = R^T (p - c)), Barr's inside-outside
-function is F = (|u1|^P + |u2|^P)^(Q/P) + |u3|^Q with P = 2/e2, Q = 2/e1 (SPEC section 2).
-Its gauge (Minkowski functional)
+function is F = (|u1|^P + |u2|^P)^(Q/P) + |u3|^Q with P = 2/e2, Q = 2/e1
+(docs/conventions.md). Its gauge (Minkowski functional)
 
 .. math::  G(u) = F(u)^{e_1/2} = \| (\rho(u_1, u_2), u_3) \|_Q,\quad
            \rho = \| (u_1, u_2) \|_P
@@ -40,7 +40,7 @@ is slow far from flat faces, where many samples are nearly equidistant); a resul
 when certified (Newton converged with mu > 0: p - q along the outward normal, which on a
 convex body makes q the projection), else the point is redone with exact seeds.
 Cost (1e5 random points in a 4 x 4 x 1.2 m box, shared 2-core machine): 0.5 s for the cylinder
-model of paper 000 (1.4 s with exact seeds), 0.35-0.6 s for other exponents <= 1; exponents
+model of [PajakPajak] (1.4 s with exact seeds), 0.35-0.6 s for other exponents <= 1; exponents
 > 1 are much slower, 20-35 s per 1e5 points (the compass search).
 """
 

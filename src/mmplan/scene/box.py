@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -17,6 +18,7 @@ from mmplan.scene.obstacle import (
     Obstacle,
     Vec3,
     as_float,
+    excess_distance_sym,
     influence_value,
     positive,
     register_shape,
@@ -67,6 +69,17 @@ class Box(Obstacle):
         d = np.abs(to_local(points, self.center, self.yaw)) - np.asarray(self.half_extents)
         outside = np.linalg.norm(np.maximum(d, 0.0), axis=1)
         return np.asarray(outside + np.minimum(d.max(axis=1), 0.0), dtype=float)
+
+    def signed_distance_sym(self, p: ca.SX) -> ca.SX:
+        """Symbolic exact signed distance of a point p (3, 1) [m] (same form as ``distance``).
+
+        Excess e = |p'| - half (local frame, componentwise): d = |max(e, 0)| + min(max_i e_i, 0).
+        """
+        half = np.asarray(self.half_extents, dtype=float)
+        cy, sy = np.cos(self.yaw), np.sin(self.yaw)
+        d = p - ca.DM(np.asarray(self.center, dtype=float))
+        local = ca.vertcat(cy * d[0] + sy * d[1], -sy * d[0] + cy * d[1], d[2])
+        return excess_distance_sym([ca.fabs(local[i]) - half[i] for i in range(3)])
 
     def enlarged(self, eps: float) -> Box:
         """Each half edge grown by ``eps`` [m] (a larger box, corners stay sharp)."""

@@ -1,7 +1,7 @@
 """Vertical cylinder obstacle (finite, flat caps): closed-form signed distance.
 
 Its planner model is the superellipsoid with exponents (e1, e2) = (0.1, 1.0): a round
-horizontal cross-section and a nearly flat top and bottom (Table 1 of paper 000).
+horizontal cross-section and a nearly flat top and bottom ([PajakPajak] Table 1).
 """
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -17,7 +18,9 @@ from mmplan.scene.obstacle import (
     Obstacle,
     Vec3,
     as_float,
+    excess_distance_sym,
     influence_value,
+    norm_sym,
     points_array,
     positive,
     register_shape,
@@ -69,6 +72,17 @@ class Cylinder(Obstacle):
         d_z = np.abs(p[:, 2]) - 0.5 * self.height
         outside = np.hypot(np.maximum(d_r, 0.0), np.maximum(d_z, 0.0))
         return np.asarray(outside + np.minimum(np.maximum(d_r, d_z), 0.0), dtype=float)
+
+    def signed_distance_sym(self, p: ca.SX) -> ca.SX:
+        """Symbolic exact signed distance of a point p (3, 1) [m] (same form as ``distance``).
+
+        Radial excess u = |p_xy - c_xy| - r and axial excess v = max(z_0 - z, z - z_1)
+        (z_0, z_1 the caps): d = |(max(u, 0), max(v, 0))| + min(max(u, v), 0).
+        """
+        base = np.asarray(self.base_center, dtype=float)
+        rho = norm_sym(p[:2] - ca.DM(base[:2]))
+        axial = ca.fmax(base[2] - p[2], p[2] - (base[2] + self.height))
+        return excess_distance_sym([rho - self.radius, axial])
 
     def enlarged(self, eps: float) -> Cylinder:
         """Radius and half height grown by ``eps`` [m] (centre kept)."""

@@ -1,12 +1,16 @@
 """Obstacle base class, input validation helpers and the registry of shapes by name.
 
 Every shape (one class per file) is a frozen dataclass whose field names are the keys of its
-scenario YAML form (SPEC section 8), so ``to_dict`` and :func:`obstacle_from_dict` are generic.
-Each shape offers two views of the same object (SPEC section 2):
+scenario YAML form (docs/conventions.md), so ``to_dict`` and :func:`obstacle_from_dict` are generic.
+Each shape offers two views of the same object (docs/conventions.md):
 
 * :meth:`Obstacle.distance`: the exact signed Euclidean distance (negative inside) used by the
   independent checker, always against the original shape;
 * :meth:`Obstacle.superellipsoid`: a smooth Barr superellipsoid model used by planners.
+
+Planners that need the distance inside a compiled CasADi function (the tracking planners)
+use :meth:`Obstacle.signed_distance_sym` (and :meth:`Obstacle.horizontal_distance_sym`): each
+shape builds its own expression, so a new shape only touches its own file.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -104,6 +109,28 @@ class Obstacle(ABC):
     def superellipsoid(self) -> Superellipsoid:
         """Smooth superellipsoid model of this obstacle for planners."""
 
+    @abstractmethod
+    def signed_distance_sym(self, p: ca.SX) -> ca.SX:
+        """Symbolic signed distance d(p) from a point p (3, 1) to the surface [m], negative inside.
+
+        For planners that need d(q) and its gradient (automatic differentiation) inside one
+        compiled control step. Shapes whose exact signed distance has a short closed form
+        build that form (the same geometry as :meth:`distance`, continuous everywhere and
+        smooth except on the medial axis and at edges, where CasADi returns one of the
+        one-sided derivatives); others may return a smooth approximation (the superellipsoid's
+        radial distance).
+        """
+
+    def horizontal_distance_sym(self, p: ca.SX) -> ca.SX:
+        """Distance in the horizontal plane from a point p (3, 1) to the obstacle [m].
+
+        The point is moved to the height of the obstacle's middle (the centre of its
+        superellipsoid model) before measuring with :meth:`signed_distance_sym`, so that a
+        platform centre (at floor level) sees a post, cylinder or box by its footprint.
+        """
+        zc = float(self.superellipsoid().center[2])
+        return self.signed_distance_sym(ca.vertcat(p[0], p[1], zc))
+
     def to_dict(self) -> dict[str, Any]:
         """Scenario YAML form (plain lists and floats); ``influence`` only when set."""
         out: dict[str, Any] = {"shape": self.shape}
@@ -178,3 +205,28 @@ def to_local(points: ArrayLike, center: Sequence[float], yaw: float) -> Array:
     p = points_array(points) - np.asarray(center, dtype=float)
     # Row-vector form of R^T (p - c): (p - c) @ R.
     return np.asarray(p @ rot_z(yaw), dtype=float)
+
+
+# --------------------------------------------------------------------- symbolic helpers
+
+#: Guards sqrt at 0 so that gradients stay finite (distance error < 1e-9 m).
+_EPS2 = 1e-18
+
+
+def norm_sym(v: ca.SX) -> ca.SX:
+    """Euclidean norm of a symbolic vector, with a finite gradient at 0 (error < 1e-9 m)."""
+    return ca.sqrt(ca.sumsqr(v) + _EPS2)
+
+
+def excess_distance_sym(excess: Sequence[ca.SX]) -> ca.SX:
+    r"""Signed distance of a convex region from its per-axis excesses (box and cylinder).
+
+    .. math:: d = \big|\max(e, 0)\big| + \min\big(\max_i e_i, 0\big)
+
+    with e_i the excess of the point over the region along axis i (negative inside).
+    """
+    outside = norm_sym(ca.vertcat(*[ca.fmax(e, 0) for e in excess]))
+    inside = excess[0]
+    for e in excess[1:]:
+        inside = ca.fmax(inside, e)
+    return outside + ca.fmin(inside, 0)

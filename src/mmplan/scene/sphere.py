@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -14,6 +15,7 @@ from mmplan.scene.obstacle import (
     Vec3,
     as_float,
     influence_value,
+    norm_sym,
     points_array,
     positive,
     register_shape,
@@ -49,6 +51,10 @@ class Sphere(Obstacle):
             np.linalg.norm(points_array(points) - np.asarray(self.center), axis=1) - self.radius,
             dtype=float,
         )
+
+    def signed_distance_sym(self, p: ca.SX) -> ca.SX:
+        """Symbolic signed distance |p - c| - r of a point p (3, 1) [m] (exact)."""
+        return norm_sym(p - ca.DM(np.asarray(self.center, dtype=float))) - self.radius
 
     def enlarged(self, eps: float) -> Sphere:
         """Radius grown by ``eps`` [m]."""

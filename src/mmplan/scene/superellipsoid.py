@@ -1,13 +1,13 @@
-r"""Barr superellipsoid obstacle: the smooth model every planner uses (SPEC section 2).
+r"""Barr superellipsoid obstacle: the smooth model every planner uses (docs/conventions.md).
 
 With centre c, semi-axes (a1, a2, a3), exponents (e1, e2) (e1 the vertical one) and yaw psi,
-p' = R_z(psi)^T (p - c) and (papers 000 and 003, Table 1)
+p' = R_z(psi)^T (p - c) and ([PajakPajak] and [Pajak], Table 1)
 
 .. math::  F(p) = \left(|x'/a_1|^{2/e_2} + |y'/a_2|^{2/e_2}\right)^{e_2/e_1} + |z'/a_3|^{2/e_1},
 
 surface F = 1, inside F < 1. F is positively homogeneous of degree 2/e1 in p', so
 p' F^{-e1/2} lies on the surface along the ray from the centre and the planner's radial
-distance (SPEC section 3 pitfalls) is
+distance (docs/extended_jacobian.md, pitfalls) is
 
 .. math::  C(p) = |p'| \left(1 - F(p)^{-e_1/2}\right).
 """
@@ -191,10 +191,16 @@ class Superellipsoid(Obstacle):
         norm = ca.sqrt(ca.sumsqr(loc))
         return norm * (1.0 - power_sym(self.implicit_sym(p), -self.exponents[0] / 2.0))
 
+    def signed_distance_sym(self, p: ca.SX) -> ca.SX:
+        """The radial distance :meth:`radial_distance_sym`: smooth, but only an approximation
+        of the Euclidean distance d (same sign and zero set, |C| >= |d|).
+        """
+        return self.radial_distance_sym(p)
+
     # --------------------------------------------------------------------- variants
 
     def enlarged(self, eps: float) -> Superellipsoid:
-        """Each semi-axis grown by ``eps`` [m] (SPEC section 2); same centre, exponents, yaw."""
+        """Semi-axes grown by ``eps`` [m] (docs/conventions.md); same centre, exponents, yaw."""
         eps = as_float(eps, "eps")
         return Superellipsoid(
             self.center,

@@ -10,7 +10,7 @@ Pass criteria (:meth:`CheckReport.failures` names each one that fails):
 * finite values; ee columns equal FK(q) within ``EE_TOL``;
 * clearance >= 0 (robot collision spheres vs original obstacles);
 * joint limits (arm coordinates) within ``LIMIT_TOL``, actuator efforts within ``TORQUE_TOL``;
-* Pfaffian residual :math:`\max_t \|A(q) \dot q\|_2 \le` ``PFAFFIAN_TOL`` (SPEC: 1e-6);
+* Pfaffian residual :math:`\max_t \|A(q) \dot q\|_2 \le` ``PFAFFIAN_TOL`` (1e-6 m/s);
 * dq consistent with q: per step, the trapezoid increment of dq matches the increment of q,
   :math:`r_i = \|(q_{i+1} - q_i)/\Delta t_i - (\dot q_i + \dot q_{i+1})/2\|_\infty`
   (the residual of q against the cumulative trapezoid integral of dq, normalized by the step),
@@ -60,7 +60,7 @@ class CheckReport:
         max_torque_violation: Largest excess over the actuator limits (0 within, or without
             finite limits); ``torque_where`` describes where. The efforts checked are the
             trajectory's tau columns when present, else the model's
-            tau = (N^T B)^-1 N^T (M ddq + c) (eq. (20) of 000) from q, dq, ddq.
+            tau = (N^T B)^-1 N^T (M ddq + c) ([PajakPajak] eq. (20)) from q, dq, ddq.
         torque_source: ``"trajectory"``, ``"model"`` or ``""`` (no finite limits).
         tau_model_deviation: max |tau column - model tau| when tau columns are present
             (None otherwise); reported, not a pass criterion (friction models may differ).
@@ -139,7 +139,7 @@ class CheckReport:
         return out
 
     def summary(self, *, status: str, planner: str, compute_time_s: float) -> dict[str, Any]:
-        """summary.json content (SPEC section 8 keys, in order) with the run's own fields."""
+        """summary.json content (docs/conventions.md keys, in order) with the run's own fields."""
         return {
             "status": status,
             "planner": planner,

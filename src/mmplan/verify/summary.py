@@ -1,9 +1,10 @@
 """Compare a plan's summary.json with the metrics the checker recomputes (``mmplan check``).
 
 summary.json is written from the same checker (:func:`mmplan.verify.check.check`) on the same
-trajectory, and trajectory.csv round-trips float64 exactly, so every SPEC key must agree up
-to rounding: a disagreement means the summary (or the trajectory) was edited or written by
-something else, and the plan fails its check naming the key.
+trajectory, and trajectory.csv round-trips float64 exactly, so every contract key
+(docs/conventions.md) must agree up to rounding: a disagreement means the summary (or the
+trajectory) was edited or written by something else, and the plan fails its check naming the
+key.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from mmplan.verify.check import CheckReport
 REL_TOL = 1e-6
 ABS_TOL = 1e-9
 
-#: Numeric SPEC keys recomputed by the checker (None allowed where the checker gives None).
+#: Numeric contract keys recomputed by the checker (None allowed where the checker gives None).
 NUMERIC_KEYS = (
     "duration_s", "duration_1cm_s", "duration_1mm_s", "final_error_m", "min_clearance_m",
     "max_joint_limit_violation", "max_torque_violation", "max_pfaffian_residual",

@@ -8,7 +8,8 @@ import pytest
 
 from mmplan.errors import InputError
 from mmplan.planners import get_planner
-from mmplan.planners.endogenous.planner import BoundSetting, EndogenousPlanner, EndogenousSettings
+from mmplan.planners.endogenous.planner import EndogenousPlanner
+from mmplan.planners.endogenous.settings import BoundSetting, EndogenousSettings
 from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
 from mmplan.robot.robot import Robot

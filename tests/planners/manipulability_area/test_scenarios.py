@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mmplan.planners import get_planner
-from mmplan.planners.manipulability_area.planner import ManipulabilityAreaSettings
+from mmplan.planners.manipulability_area.settings import ManipulabilityAreaSettings
 from mmplan.scenario.loader import load_scenario
 from mmplan.task import DrawSegment
 from mmplan.trajectory import Status

@@ -10,12 +10,9 @@ import pytest
 from pydantic import ValidationError
 
 from mmplan.errors import InputError
-from mmplan.planners.tracking.impedance import (
-    ImpedancePlanner,
-    ImpedanceSettings,
-    VirtualImpedance,
-    obstacle_force_magnitude,
-)
+from mmplan.planners.tracking.impedance import VirtualImpedance, obstacle_force_magnitude
+from mmplan.planners.tracking.planner import ImpedancePlanner
+from mmplan.planners.tracking.settings import ImpedanceSettings
 from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
 from mmplan.robot.robot import Robot

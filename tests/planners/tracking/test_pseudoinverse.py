@@ -9,14 +9,10 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from mmplan.planners.tracking.geometry import signed_distance_sym
+from mmplan.planners.tracking.planner import PseudoinversePlanner
 from mmplan.planners.tracking.potentials import barrier_term
-from mmplan.planners.tracking.pseudoinverse import (
-    PseudoinversePlanner,
-    PseudoinverseSettings,
-    WeightedPseudoinverse,
-    coordinate_weights,
-)
+from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse, coordinate_weights
+from mmplan.planners.tracking.settings import PseudoinverseSettings
 from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
 from mmplan.scene import Scene, obstacle_from_dict
@@ -155,7 +151,7 @@ def test_barrier_term_eq32() -> None:
 def test_symbolic_distance_equals_exact_distance(rng: np.random.Generator, data: dict) -> None:
     obstacle = obstacle_from_dict(data)
     p = ca.SX.sym("p", 3)
-    f = ca.Function("d", [p], [signed_distance_sym(obstacle, p)])
+    f = ca.Function("d", [p], [obstacle.signed_distance_sym(p)])
     center = np.asarray(data.get("center", data.get("base_center")), dtype=float)
     points = center + rng.uniform(-0.8, 0.8, (300, 3))
     ours = np.array([float(f(x)) for x in points])

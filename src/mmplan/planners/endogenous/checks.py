@@ -24,7 +24,7 @@ from mmplan.robot.robot import Robot, Symbols
 from mmplan.task import ReachPoint
 
 if TYPE_CHECKING:
-    from mmplan.planners.endogenous.planner import EndogenousSettings
+    from mmplan.planners.endogenous.settings import EndogenousSettings
 
 Array = NDArray[np.float64]
 

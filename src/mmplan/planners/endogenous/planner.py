@@ -44,12 +44,8 @@ bound - 1 for symmetric bounds; negative inside), ``backend`` ("c" or "vm").
 
 from __future__ import annotations
 
-import time
-from typing import Annotated, Literal
-
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict, Field
 
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
@@ -57,92 +53,26 @@ from mmplan.planners.endogenous.cache import get_model
 from mmplan.planners.endogenous.checks import check_problem
 from mmplan.planners.endogenous.model import EndogenousModel
 from mmplan.planners.endogenous.output import ArmBox, build_trajectory, wrap_arm
-from mmplan.problem import PlannerSettings, Problem, Progress
+from mmplan.planners.endogenous.settings import EndogenousSettings
+from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint
-from mmplan.trajectory import PlanResult, Status
+from mmplan.trajectory import Solution, Status
 
 Array = NDArray[np.float64]
 
 
-#: Input ranges (work bounds: a run costs about max_iterations x steps rollouts of
-#: sum(basis_terms) parameters; beyond these the run would hang or overflow).
-MAX_HORIZON_S = 1e3
-MAX_BASIS_TERMS = 51
-MAX_LAMBDA = 1e4
-MAX_TOLERANCE_M = 1.0
-MAX_ITERATIONS = 100_000
-MAX_STEPS = 20_000
-
-
-class BoundSetting(BaseModel):
-    """A state bound ``min <= q[coordinate] <= max`` (platform or arm coordinate)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    coordinate: str
-    min: float = Field(strict=True, allow_inf_nan=False)
-    max: float = Field(strict=True, allow_inf_nan=False)
-
-
-class EndogenousSettings(PlannerSettings):
-    """Settings of the endogenous configuration space planner (SPEC section 6 defaults)."""
-
-    method: Literal["endogenous"] = "endogenous"
-    t_max: float = Field(
-        120.0, gt=0, allow_inf_nan=False,
-        description="not used by this planner: max_iterations is its budget (kept for the "
-        "common settings)",
-    )
-    horizon: float = Field(1.0, gt=0, le=MAX_HORIZON_S, allow_inf_nan=False,
-                           description="control horizon T [s]")
-    basis_terms: tuple[Annotated[int, Field(ge=1, le=MAX_BASIS_TERMS)], ...] = Field(
-        (3, 5), description="Fourier terms s_i + 1 per platform control (1, sin, cos, ...)"
-    )
-    lambda0: tuple[Annotated[float, Field(allow_inf_nan=False, ge=-MAX_LAMBDA,
-                                          le=MAX_LAMBDA)], ...] | None = Field(
-        None, description="initial Fourier coefficients, control by control; default zeros"
-    )
-    gamma: float = Field(0.1, gt=0, le=1, allow_inf_nan=False,
-                         description="decay rate of the theta-iteration")
-    tolerance: float | None = Field(
-        None, gt=0, le=MAX_TOLERANCE_M, allow_inf_nan=False,
-        description="stop when |e_task| < tolerance [m]; default the goal tolerance",
-    )
-    bound_tolerance: float | None = Field(
-        None, gt=0, le=MAX_TOLERANCE_M, allow_inf_nan=False,
-        description="stop also needs |bound outputs| < this; default = tolerance",
-    )
-    max_iterations: int = Field(3000, ge=1, le=MAX_ITERATIONS,
-                                description="iteration budget (the planner's only budget)")
-    steps: int = Field(200, ge=4, le=MAX_STEPS, description="RK4 steps on [0, T]")
-    bounds: tuple[BoundSetting, ...] = ()
-    sharpness: float = Field(50.0, gt=0, le=1e6, allow_inf_nan=False,
-                             description="a of the plus function p(x, a)")
-    regularizer_weight: float = Field(1.0, gt=0, le=1e6, allow_inf_nan=False,
-                                      description="w of r(q) = w (q - c)^2")
-    singular_threshold: float = Field(1e-8, gt=0, lt=1, allow_inf_nan=False,
-                                      description="min singular value of J")
-    codegen: bool = Field(True, description="compile the rollout to C (cached); else CasADi VM")
-
-
 @register
-class EndogenousPlanner(Planner):
-    """Jacobian pseudoinverse planner in the endogenous configuration space (paper 002)."""
+class EndogenousPlanner(Planner[EndogenousSettings, ReachPoint]):
+    """Jacobian pseudoinverse planner in the endogenous configuration space ([JaniakTchon])."""
 
-    method = "endogenous"
     settings_model = EndogenousSettings
+    task_type = ReachPoint
+    task_hint = "a goal position (goal.position)"
 
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
-        """Run the theta-iteration (eq. (20) of 002) from (lambda0, x0) to the goal."""
-        settings = problem.settings
-        if not isinstance(settings, EndogenousSettings):
-            raise InputError(
-                "planner.method", f"expected endogenous settings, got {settings.method!r}"
-            )
-        task = problem.task
-        if not isinstance(task, ReachPoint):
-            raise InputError("goal", "the endogenous planner needs a goal position (ReachPoint)")
-        clock = time.perf_counter()
+    def _solve(
+        self, problem: Problem, settings: EndogenousSettings, task: ReachPoint, progress: Progress
+    ) -> Solution:
+        """Run the theta-iteration ([JaniakTchon] eq. (20)) from (lambda0, x0) to the goal."""
         bounds, lam0 = check_problem(problem, settings)
         robot = problem.robot
         n_p = robot.n_platform
@@ -179,7 +109,7 @@ class EndogenousPlanner(Planner):
                 "or start (controls that move the bounded coordinates)",
             )
         run = _iterate(model, box, settings, qp0, lam0, xi0, yd, tol, bound_tol, progress)
-        return _result(problem, settings, model, box.to_x(run.x), run, time.perf_counter() - clock)
+        return _result(problem, settings, model, box.to_x(run.x), run)
 
 
 def _evaluate(
@@ -299,8 +229,7 @@ def _result(
     model: EndogenousModel,
     x_last: Array,
     run: _Run,
-    elapsed: float,
-) -> PlanResult:
+) -> Solution:
     """Trajectory on [0, T] from the last configuration (lambda, x_last), info and history."""
     robot = problem.robot
     start = np.asarray(problem.start, float)
@@ -340,12 +269,10 @@ def _result(
         "task_error": np.asarray(run.task_errors),
         "min_singular_value": np.asarray(run.singular_values),
     }
-    return PlanResult(
+    return Solution(
         status=status,
         trajectory=traj,
-        planner="endogenous",
         message=message,
-        compute_time_s=elapsed,
         info=info,
         history=history,
         artifacts={"lambda": run.lam, "x": x},

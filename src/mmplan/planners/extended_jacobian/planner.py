@@ -29,14 +29,12 @@ mode),
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mmplan.analysis.vibration import with_vibration
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.extended_jacobian import cache as ej_cache
@@ -60,7 +58,7 @@ from mmplan.planners.extended_jacobian.time_scaling import rollout_time_scaled
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint
-from mmplan.trajectory import PlanResult, Trajectory
+from mmplan.trajectory import Solution, Trajectory
 
 
 @dataclass(frozen=True)
@@ -77,23 +75,28 @@ class _Prepared:
     time_scaling: bool
     switch: Callable[[NDArray[np.float64]], GeneratorFunctions | None]
     partitions: list[Partition]
-    vibration: bool
 
 
 @register
-class ExtendedJacobian(Planner):
-    """Extended-Jacobian trajectory generator with virtual control (papers 000, 003)."""
+class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
+    """Extended-Jacobian trajectory generator with virtual control ([PajakPajak], [Pajak])."""
 
-    method = "extended-jacobian"
     settings_model = ExtendedJacobianSettings
+    task_type = ReachPoint
+    task_hint = "a goal position (goal.position)"
 
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+    def _solve(
+        self,
+        problem: Problem,
+        settings: ExtendedJacobianSettings,
+        task: ReachPoint,
+        progress: Progress,
+    ) -> Solution:
         """Plan a point-to-point motion; see the module docstring.
 
         Raises:
-            InputError: bad input detectable before planning (see :mod:`ej_checks`).
+            InputError: bad input detectable before planning (see :mod:`checks`).
         """
-        start_clock = time.perf_counter()
         prep = self._prepare(problem)
         robot = problem.robot
         run = rollout_time_scaled if prep.time_scaling else rollout
@@ -129,34 +132,26 @@ class ExtendedJacobian(Planner):
                 "build_time_s": prep.build_time,
             }
         )
-        if progress is not None:
-            progress(1.0)
-        result = PlanResult(
+        return Solution(
             status=res.status,
             trajectory=trajectory,
-            planner=self.method,
             message=res.message,
-            compute_time_s=time.perf_counter() - start_clock,
             info=info,
             history={"error": res.error, "perturbation_scale": res.s},
         )
-        # Paper 003's claim (smoother torques shake the arm less), measured on every plan:
-        # tip-acceleration RMS and spectrum of a compliant tip (not counted in compute time).
-        return with_vibration(result, robot) if prep.vibration else result
 
     def online(self, problem: Problem) -> OnlineGenerator:
         """The generator as an online step for a control loop (state in; ddq, tau, u out)."""
         prep = self._prepare(problem)
         return OnlineGenerator(prep.fns, prep.p_f, prep.options)
 
-    @staticmethod
-    def _prepare(problem: Problem) -> _Prepared:
-        settings = problem.settings
-        if not isinstance(settings, ExtendedJacobianSettings):
-            settings = ExtendedJacobianSettings.model_validate(settings.model_dump())
+    @classmethod
+    def _prepare(cls, problem: Problem) -> _Prepared:
+        """Checks, the compiled generator and the run options of ``problem``."""
+        settings = cls.settings(problem.settings)
         robot, task = problem.robot, problem.task
         if not isinstance(task, ReachPoint):
-            raise InputError("goal", "the extended-Jacobian planner needs a goal position")
+            raise InputError("goal", f"the {cls.method} planner needs {cls.task_hint}")
         q0 = ej_checks.check_start(robot, problem.start)
         p_f = np.asarray(task.position, dtype=float)
         ej_checks.check_goal(robot, p_f)
@@ -235,5 +230,4 @@ class ExtendedJacobian(Planner):
             time_scaling,
             switch,
             partitions,
-            settings.vibration,
         )

@@ -102,6 +102,6 @@ class ExtendedJacobianSettings(PlannerSettings):
         False, description="compile the generator to C (faster steps, 5-20 s build, cached)"
     )
     vibration: bool = Field(
-        True, description="add paper 003's tip-vibration study to the result (analysis after "
-        "planning, not in compute_time_s; off when replanning in a loop)",
+        True, description="the CLI and mmplan.analysis.analyse add the tip-vibration study "
+        "([Pajak] section 6) after planning (not part of planning or compute_time_s)",
     )

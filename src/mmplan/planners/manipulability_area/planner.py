@@ -27,119 +27,36 @@ violation is reported, ``respect_joint_limits`` removes such cells.
 
 from __future__ import annotations
 
-import time
-from typing import Literal
-
 import numpy as np
-from pydantic import Field, model_validator
-from pydantic_core import PydanticCustomError
 
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.manipulability_area import grid as lma_grid
 from mmplan.planners.manipulability_area import path as lma_path
 from mmplan.planners.manipulability_area.result import assemble, failure
-from mmplan.problem import PlannerSettings, Problem, Progress
+from mmplan.planners.manipulability_area.settings import ManipulabilityAreaSettings
+from mmplan.problem import Problem, Progress
 from mmplan.robot.library.base_6dof_ik import PumaGeometry
 from mmplan.task import DrawSegment
-from mmplan.trajectory import PlanResult
-
-#: Work bounds: the layer stack holds cells x layers manipulabilities (9 bytes each) and one
-#: layer's IK temporaries (a few hundred bytes a cell).
-MAX_GRID_CELLS = 1_000_000
-MAX_STACK_CELLS = 30_000_000
-
-
-class ManipulabilityAreaSettings(PlannerSettings):
-    """Settings of the manipulability-area planner (SPEC section 7 defaults)."""
-
-    method: Literal["manipulability-area"] = "manipulability-area"
-    x_range: tuple[float, float] = Field(default=(0.01, 1.0), description="grid x [m]")
-    y_range: tuple[float, float] = Field(default=(-0.8, 1.4), description="grid y [m]")
-    resolution: float = Field(default=0.01, gt=0, allow_inf_nan=False, description="cell [m]")
-    layers: int = Field(default=31, ge=2, le=1000, description="poses along the task")
-    threshold_ratio: float = Field(
-        default=0.5, gt=0, le=1, allow_inf_nan=False,
-        description="MA threshold / largest w of the whole LMA (ignored when threshold is set)",
-    )
-    threshold: float | None = Field(
-        default=None,
-        gt=0,
-        allow_inf_nan=False,
-        description="absolute MA threshold [m^3]; when set it wins over threshold_ratio",
-    )
-    heading: float | None = Field(
-        default=None,
-        allow_inf_nan=False,
-        description="base heading [rad]; default faces the surface",
-    )
-    shoulder: Literal["right", "left"] = "right"
-    elbow: Literal["up", "down"] = Field(default="up", description="Corke's ikine_a labels")
-    wrist_flip: bool = False
-    subgoals: bool = Field(
-        default=True, description="plan through sub-goals when no straight segment"
-    )
-    max_step: float = Field(
-        default=0.03,
-        gt=0,
-        allow_inf_nan=False,
-        description="sub-goal search: max base move per layer [m]",
-    )
-    straight_groups: int = Field(
-        default=200, ge=1, description="straight lengths verified exactly, at most"
-    )
-    respect_joint_limits: bool = False
-    substeps: int = Field(default=1, ge=1, le=100,
-                          description="trajectory rows (and exact checks) per layer interval")
-
-    @model_validator(mode="after")
-    def _ranges(self) -> ManipulabilityAreaSettings:
-        for key, (lo, hi) in (("x_range", self.x_range), ("y_range", self.y_range)):
-            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-                raise ValueError(
-                    f"{key}: expected finite [min, max] with min < max, got [{lo}, {hi}]"
-                )
-        nx, ny = (int(np.floor((hi - lo) / self.resolution + 1e-9)) + 1
-                  for lo, hi in (self.x_range, self.y_range))
-        if nx * ny > MAX_GRID_CELLS or nx * ny * self.layers > MAX_STACK_CELLS:
-            raise PydanticCustomError(
-                "scenario",
-                f"a grid of {nx} x {ny} cells x {self.layers} layers is too large "
-                f"(limits: {MAX_GRID_CELLS:.0e} cells, {MAX_STACK_CELLS:.0e} cells x layers); "
-                "use a coarser resolution, smaller ranges or fewer layers",
-                {"key": "resolution"},
-            )
-        return self
-
-    def branch(self) -> lma_grid.Branch:
-        """The IK branch."""
-        return lma_grid.Branch(
-            1 if self.shoulder == "right" else -1, 1 if self.elbow == "up" else -1, self.wrist_flip
-        )
+from mmplan.trajectory import Solution
 
 
 @register
-class ManipulabilityArea(Planner):
-    """Paper 004: straight (or sub-goal) base path inside the Layer of Manipulability Areas."""
+class ManipulabilityArea(Planner[ManipulabilityAreaSettings, DrawSegment]):
+    """[Nagatani]: straight (or sub-goal) base path inside the Layer of Manipulability Areas."""
 
-    method = "manipulability-area"
     settings_model = ManipulabilityAreaSettings
+    task_type = DrawSegment
+    task_hint = "a segment to draw (goal.segment {start, end, normal})"
 
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
+    def _solve(
+        self,
+        problem: Problem,
+        settings: ManipulabilityAreaSettings,
+        task: DrawSegment,
+        progress: Progress,
+    ) -> Solution:
         """Plan the base path and the arm motion for a :class:`~mmplan.task.DrawSegment`."""
-        t0 = time.perf_counter()
-        settings = problem.settings
-        if not isinstance(settings, ManipulabilityAreaSettings):
-            raise InputError(
-                "planner", f"expected manipulability-area settings, got {type(settings).__name__}"
-            )
-        task = problem.task
-        if not isinstance(task, DrawSegment):
-            raise InputError(
-                "goal",
-                "manipulability-area plans a segment: expected "
-                f"goal.segment {{start, end, normal}}, got {type(task).__name__}",
-            )
         if problem.scene.obstacles:
             raise InputError(
                 "obstacles",
@@ -156,7 +73,11 @@ class ManipulabilityArea(Planner):
         geom = PumaGeometry.base_6dof()
         grid = lma_grid.Grid.from_bounds(settings.x_range, settings.y_range, settings.resolution)
         poses = lma_grid.tool_poses(task, settings.layers, settings.heading)
-        branch = settings.branch()
+        branch = lma_grid.Branch(
+            1 if settings.shoulder == "right" else -1,
+            1 if settings.elbow == "up" else -1,
+            settings.wrist_flip,
+        )
         limits = (
             (problem.robot.limits.joint_min, problem.robot.limits.joint_max)
             if settings.respect_joint_limits
@@ -166,8 +87,8 @@ class ManipulabilityArea(Planner):
         if progress is not None:
             progress(0.5)
 
-        def fail(message: str) -> PlanResult:
-            return failure(problem, message, time.perf_counter() - t0)
+        def fail(message: str) -> Solution:
+            return failure(problem, message)
 
         unreachable = np.flatnonzero(~stack.reachable.any(axis=(1, 2)))
         if unreachable.size:
@@ -219,11 +140,8 @@ class ManipulabilityArea(Planner):
             keep = lma_path.shortcut(cells, accept)
             layer_xy = grid.to_metres(cells.astype(float))
             kind = "subgoals"
-        if progress is not None:
-            progress(1.0)
         return assemble(problem, stack, masks, threshold, dense, layer_xy[keep], keep, branch,
-                        limits, kind=kind, straight_groups=checked,
-                        elapsed=time.perf_counter() - t0)
+                        limits, kind=kind, straight_groups=checked)
 
     @staticmethod
     def _straight(

@@ -15,13 +15,10 @@ from mmplan.planners.manipulability_area import path as lma_path
 from mmplan.problem import Problem
 from mmplan.robot.library import base_6dof_ik as puma_ik
 from mmplan.robot.library.base_6dof_ik import PumaGeometry
-from mmplan.trajectory import PlanResult, Status, Trajectory
+from mmplan.trajectory import Solution, Status, Trajectory
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
-
-METHOD = "manipulability-area"
-
 
 def _ee(problem: Problem, q: Array) -> Array:
     """End-effector positions from the robot model's FK, (N, 3)."""
@@ -69,11 +66,11 @@ def _along(geom: PumaGeometry, problem: Problem, poses: lma_grid.ToolPoses, xy: 
     return q_arm, np.where(ok, puma_ik.manipulability(geom, q_arm), 0.0), ok
 
 
-def failure(problem: Problem, message: str, elapsed: float) -> PlanResult:
+def failure(problem: Problem, message: str) -> Solution:
     """An infeasible result holding the start configuration as its only row."""
     q = np.asarray(problem.start, dtype=float)[None, :]
     traj = _trajectory(problem, np.zeros(1), q)
-    return PlanResult(Status.INFEASIBLE, traj, METHOD, message, elapsed)
+    return Solution(Status.INFEASIBLE, traj, message)
 
 
 def _limit_violation(problem: Problem, q_arm: Array) -> float:
@@ -96,8 +93,7 @@ def assemble(
     *,
     kind: str,
     straight_groups: int,
-    elapsed: float,
-) -> PlanResult:
+) -> Solution:
     """Trajectory through the sub-goals ``way_xy`` (K, 2) at layers ``keep`` (K,), sampled at
     the (dense) ``poses``, and the result: reached unless the exact manipulability or the task
     error says otherwise. Corners get parabolic blends over half a layer interval when the
@@ -174,4 +170,4 @@ def assemble(
             f"{kind} base path, {info['path_length_m']:.3f} m, w min "
             f"{info['manipulability_min']:.5f} >= threshold {threshold:.5f} m^3"
         )
-    return PlanResult(status, traj, METHOD, message, elapsed, info, artifacts=artifacts)
+    return Solution(status, traj, message, info, artifacts=artifacts)

@@ -20,7 +20,7 @@ tracking term itself), each along the outward normal of the obstacle with magnit
     a_{obs}\ (d \le d_{min}),\quad 0\ (d \ge d_{max}),\quad a_{obs} = b_{obs}(d_{max} - d_{min})^2,
 
 d the horizontal distance from the platform centre to the obstacle's surface
-(:func:`~mmplan.planners.tracking.geometry.horizontal_distance_sym`; a point obstacle is a
+(:meth:`~mmplan.scene.obstacle.Obstacle.horizontal_distance_sym`; a point obstacle is a
 thin post). Reading of the platform task (SPEC 5): :math:`\xi_p^*(t)` = (X_d,x(t) + o_x,
 X_d,y(t) + o_y, heading) with the offset o and heading from the settings; the example's
 "(t, t, pi/4)" is read as (0.1 t, 0.1 t, pi/4). ``b_obs = 0`` switches the impedance off.
@@ -28,71 +28,19 @@ X_d,y(t) + o_y, heading) with the offset o and heading from the settings; the ex
 
 from __future__ import annotations
 
-import time
-from typing import Literal
-
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field, model_validator
 
 from mmplan.errors import InputError
-from mmplan.planners.base import Planner, register
-from mmplan.planners.tracking.geometry import horizontal_distance_sym
 from mmplan.planners.tracking.potentials import min_clearance_sym, sphere_distances
-from mmplan.planners.tracking.pseudoinverse import require_path
-from mmplan.planners.tracking.result import track
-from mmplan.planners.tracking.rollout import TrackingSettings, compile_step
-from mmplan.problem import Problem, Progress
+from mmplan.planners.tracking.rollout import compile_step
+from mmplan.planners.tracking.settings import ImpedanceSettings
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
-from mmplan.trajectory import PlanResult
 
 Array = NDArray[np.float64]
-
-
-class ImpedanceSettings(TrackingSettings):
-    """Settings of the virtual-impedance tracker; defaults are SPEC section 5's example."""
-
-    method: Literal["impedance"] = "impedance"
-    dt: float = Field(default=0.001, gt=0, allow_inf_nan=False, description="integration step [s]")
-    gain: float = Field(5.0, ge=0, allow_inf_nan=False, description="W_t = gain I [1/s]")
-    platform_heading: float = Field(
-        np.pi / 4, allow_inf_nan=False, description="theta of the platform pose task [rad]"
-    )
-    platform_offset: tuple[float, float] = Field(
-        (0.0, 0.0), description="platform task x, y = end-effector path x, y + this offset [m]"
-    )
-    d_max: float = Field(
-        1.0,
-        gt=0,
-        allow_inf_nan=False,
-        description="repulsion zone [m] (an obstacle's own influence wins)",
-    )
-    d_min: float = Field(0.15, ge=0, allow_inf_nan=False, description="saturation distance [m]")
-    b_obs: float = Field(
-        0.25,
-        ge=0,
-        allow_inf_nan=False,
-        description="force coefficient [N/m^2]; 0 switches the impedance off",
-    )
-    damping: float = Field(1.0, gt=0, allow_inf_nan=False, description="B_d of Z_d = B_d s + K_d")
-    stiffness: float = Field(1.0, ge=0, allow_inf_nan=False, description="K_d of Z_d")
-    settle_time: float = Field(
-        1.0,
-        ge=0,
-        allow_inf_nan=False,
-        description="report the max tracking error after this time [s]",
-    )
-
-    @model_validator(mode="after")
-    def _check(self) -> ImpedanceSettings:
-        if self.d_min >= self.d_max:
-            raise ValueError(f"d_min ({self.d_min}) must be below d_max ({self.d_max})")
-        if not all(np.isfinite(v) for v in self.platform_offset):
-            raise ValueError(f"platform_offset must be finite, got {self.platform_offset}")
-        return self
 
 
 def obstacle_force_magnitude(d: ca.SX, d_min: float, d_max: float, b_obs: float) -> ca.SX:
@@ -135,7 +83,7 @@ class VirtualImpedance:
         d_min = ca.SX(1e3)
         for obstacle in obstacles:
             d_max = obstacle.influence if obstacle.influence is not None else settings.d_max
-            d = horizontal_distance_sym(obstacle, p)
+            d = obstacle.horizontal_distance_sym(p)
             grad = ca.gradient(d, p)[:2]
             normal = grad / ca.sqrt(ca.sumsqr(grad) + 1e-18)
             mag = obstacle_force_magnitude(
@@ -186,41 +134,7 @@ class VirtualImpedance:
         return float(np.linalg.svd(J_t, compute_uv=False).min())
 
 
-@register
-class ImpedancePlanner(Planner):
-    """End-effector + platform-pose tracking with virtual impedance (001 section 3)."""
-
-    method = "impedance"
-    settings_model = ImpedanceSettings
-
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
-        """Track ``problem.task`` (a :class:`TrackPath`) from ``problem.start``."""
-        clock = time.perf_counter()
-        settings = problem.settings
-        if not isinstance(settings, ImpedanceSettings):
-            raise InputError(
-                "planner", f"expected ImpedanceSettings, got {type(settings).__name__}"
-            )
-        task = require_path(problem)
-        model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings)
-        state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
-        return track(
-            problem,
-            settings,
-            self.method,
-            model.step,
-            state0,
-            lambda t: model.reference(task, t),
-            model.smallest_singular_value,
-            progress,
-            clock,
-            lambda run: (
-                _platform_distances(model, task, run.t, run.q) if problem.scene.obstacles else {}
-            ),
-        )
-
-
-def _platform_distances(
+def platform_distances(
     model: VirtualImpedance, task: TrackPath, t: Array, q: Array
 ) -> dict[str, float]:
     """Horizontal platform-centre distances to the nearest obstacle surface [m].

@@ -12,7 +12,6 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from mmplan.planners.tracking.geometry import signed_distance_sym
 from mmplan.scene.obstacle import Obstacle
 
 
@@ -67,6 +66,9 @@ def sphere_distances(
 ) -> list[tuple[Obstacle, ca.SX]]:
     """d_ij = dist(p_i, O_j) - r_i for every collision sphere i and obstacle j.
 
+    dist is each obstacle's own symbolic signed distance
+    (:meth:`~mmplan.scene.obstacle.Obstacle.signed_distance_sym`).
+
     Args:
         points: Symbolic sphere centres (3, P) in world coordinates.
         radii: Sphere radii (P,) [m].
@@ -76,7 +78,7 @@ def sphere_distances(
         (obstacle, d_ij) pairs, obstacle-major.
     """
     return [
-        (obstacle, signed_distance_sym(obstacle, points[:, i]) - float(radii[i]))
+        (obstacle, obstacle.signed_distance_sym(points[:, i]) - float(radii[i]))
         for obstacle in obstacles
         for i in range(points.shape[1])
     ]

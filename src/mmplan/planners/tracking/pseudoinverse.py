@@ -25,66 +25,20 @@ the paper does not say which integrator it used.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
-from typing import Literal
 
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field, model_validator
 
 from mmplan.errors import InputError
-from mmplan.planners.base import Planner, register
 from mmplan.planners.tracking.potentials import joint_limit_potential, obstacle_potential
-from mmplan.planners.tracking.result import track
-from mmplan.planners.tracking.rollout import TrackingSettings, compile_step
-from mmplan.problem import Problem, Progress
+from mmplan.planners.tracking.rollout import compile_step
+from mmplan.planners.tracking.settings import PseudoinverseSettings
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
-from mmplan.task import TrackPath
-from mmplan.trajectory import PlanResult
 
 Array = NDArray[np.float64]
-
-
-class PseudoinverseSettings(TrackingSettings):
-    """Settings of the weighted-pseudoinverse tracker; defaults are SPEC section 4's example."""
-
-    method: Literal["pseudoinverse"] = "pseudoinverse"
-    gain: float = Field(
-        2.0, ge=0, allow_inf_nan=False, description="drift correction K = gain I [1/s]"
-    )
-    beta1: float = Field(0.5, ge=0, allow_inf_nan=False, description="joint-limit potential weight")
-    beta2: float = Field(1.0, ge=0, allow_inf_nan=False, description="obstacle potential weight")
-    k1: float = Field(0.002, ge=0, allow_inf_nan=False, description="obstacle potential gain [m^2]")
-    d0: float = Field(
-        0.6,
-        gt=0,
-        allow_inf_nan=False,
-        description="influence distance d0 [m] (an obstacle's own influence wins)",
-    )
-    d_floor: float = Field(
-        0.02,
-        gt=0,
-        allow_inf_nan=False,
-        description="below this distance [m] V2 continues linearly (finite)",
-    )
-    platform_range: tuple[float, ...] | None = Field(
-        None, description="ranges b_i of the platform coordinates; default x, y 10 m, angles 2 pi"
-    )
-
-    @model_validator(mode="after")
-    def _check(self) -> PseudoinverseSettings:
-        if self.d_floor >= self.d0:
-            raise ValueError(f"d_floor ({self.d_floor}) must be below d0 ({self.d0})")
-        if self.platform_range is not None and not all(
-            b > 0 and np.isfinite(b) for b in self.platform_range
-        ):
-            raise ValueError(
-                f"platform_range must hold positive finite ranges, got {self.platform_range}"
-            )
-        return self
 
 
 def coordinate_weights(robot: Robot, platform_range: Sequence[float] | None) -> Array:
@@ -183,51 +137,3 @@ class WeightedPseudoinverse:
         """Exact sigma_min(J(q) W0^-1)."""
         J = np.asarray(self.task_jacobian(q), dtype=float)
         return float(np.linalg.svd(J / np.sqrt(self.w)[None, :], compute_uv=False).min())
-
-
-def require_path(problem: Problem) -> TrackPath:
-    """The problem's task as a path, else :class:`InputError` on ``goal``."""
-    if not isinstance(problem.task, TrackPath):
-        raise InputError(
-            "goal",
-            f"{problem.settings.method} tracks a path (goal.path), "
-            f"got {type(problem.task).__name__}",
-        )
-    if np.shape(problem.start) != (problem.robot.n,):
-        raise InputError("start", f"expected {problem.robot.n} values {problem.robot.coordinates}")
-    return problem.task
-
-
-@register
-class PseudoinversePlanner(Planner):
-    """Weighted-pseudoinverse path tracker with null-space potentials (001 section 2)."""
-
-    method = "pseudoinverse"
-    settings_model = PseudoinverseSettings
-
-    def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
-        """Track ``problem.task`` (a :class:`TrackPath`) from ``problem.start``."""
-        clock = time.perf_counter()
-        settings = problem.settings
-        if not isinstance(settings, PseudoinverseSettings):
-            raise InputError(
-                "planner", f"expected PseudoinverseSettings, got {type(settings).__name__}"
-            )
-        task = require_path(problem)
-        model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings)
-
-        def reference(t: float) -> Array:
-            return np.concatenate([task.position(t), task.velocity(t)])
-
-        return track(
-            problem,
-            settings,
-            self.method,
-            model.step,
-            np.asarray(problem.start, dtype=float),
-            reference,
-            model.smallest_singular_value,
-            progress,
-            clock,
-            lambda run: {"weights": [float(v) for v in model.w]},
-        )

@@ -7,7 +7,6 @@ against the scene's (original) obstacles at the robot's collision spheres.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -15,13 +14,13 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from mmplan.errors import ModelError
-from mmplan.planners.tracking.rollout import Rollout, TrackingSettings, rollout
+from mmplan.planners.tracking.rollout import Rollout, StopRules, rollout
+from mmplan.planners.tracking.settings import TrackingSettings
 from mmplan.problem import Problem, Progress
 from mmplan.robot.robot import Robot
 from mmplan.scene.scene import Scene
 from mmplan.task import TrackPath, completion_time
-from mmplan.trajectory import PlanResult, Status, Trajectory
+from mmplan.trajectory import Solution, Status, Trajectory
 
 Array = NDArray[np.float64]
 
@@ -50,13 +49,11 @@ def finish(
     robot: Robot,
     scene: Scene,
     task: TrackPath,
-    planner: str,
     dt: float,
     settle_time: float,
     timed_out: bool,
-    compute_time_s: float,
     info: Mapping[str, Any],
-) -> PlanResult:
+) -> Solution:
     """Trajectory, status and info of a finished rollout.
 
     Status: the rollout's own stop status when it stopped early; otherwise ``timeout`` when
@@ -106,30 +103,25 @@ def finish(
     }
     if clearance is not None:
         history["clearance_m"] = clearance
-    return PlanResult(status, trajectory, planner, message, compute_time_s, full_info, history)
+    return Solution(status, trajectory, message, full_info, history)
 
 
 def track(
     problem: Problem,
     settings: TrackingSettings,
-    planner: str,
+    task: TrackPath,
     step: ca.Function,
     state0: Array,
     reference: Callable[[float], Array],
     exact_sigma: Callable[[Array], float],
     progress: Progress,
-    clock: float,
     info: Callable[[Rollout], Mapping[str, Any]] = lambda run: {},
-) -> PlanResult:
-    """Roll a compiled tracking step along ``problem.task`` and finish the result.
+) -> Solution:
+    """Roll a compiled tracking step along ``task`` and finish the result.
 
-    Shared by the trackers of paper 001: the horizon is min(path duration, t_max) at
-    ``settings.dt``; ``info(run)`` adds method-specific numbers; ``clock`` is the
-    ``time.perf_counter()`` at the start of planning (compute time).
+    Shared by both trackers: the horizon is min(path duration, t_max) at ``settings.dt``;
+    ``info(run)`` adds method-specific numbers.
     """
-    task = problem.task
-    if not isinstance(task, TrackPath):  # planners call require_path first
-        raise ModelError(f"track: expected a TrackPath task, got {type(task).__name__}")
     t_end = min(task.duration, settings.t_max)
     steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
     run = rollout(
@@ -139,7 +131,7 @@ def track(
         problem.robot,
         settings.dt,
         steps,
-        settings.stop_rules(),
+        StopRules.of(settings),
         exact_sigma,
         progress,
     )
@@ -148,10 +140,8 @@ def track(
         problem.robot,
         problem.scene,
         task,
-        planner,
         settings.dt,
         settings.settle_time,
         task.duration > settings.t_max,
-        time.perf_counter() - clock,
         info(run),
     )

@@ -32,45 +32,13 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
 
-from mmplan.problem import PlannerSettings, Progress
+from mmplan.planners.tracking.settings import TrackingSettings
+from mmplan.problem import Progress
 from mmplan.robot.robot import Robot
 from mmplan.trajectory import Status
 
 Array = NDArray[np.float64]
-
-
-class TrackingSettings(PlannerSettings):
-    """Settings shared by the path trackers of paper 001 (step and stop rules)."""
-
-    dt: float = Field(default=0.01, gt=0, allow_inf_nan=False, description="integration step [s]")
-
-    min_singular_value: float = Field(
-        default=0.02,
-        gt=0,
-        allow_inf_nan=False,
-        description="stop (stalled) below this smallest singular value of the task matrix",
-    )
-    max_error: float = Field(
-        default=0.1,
-        gt=0,
-        allow_inf_nan=False,
-        description="stop (diverged) when the error exceeds the initial one by this [m]",
-    )
-    settle_time: float = Field(
-        default=2.0,
-        ge=0,
-        allow_inf_nan=False,
-        description="report the max tracking error after this time [s]",
-    )
-    stop_on_collision: bool = Field(
-        default=True, description="stop (stalled) when a collision sphere touches an obstacle"
-    )
-
-    def stop_rules(self) -> StopRules:
-        """The rollout's stop rules from these settings."""
-        return StopRules(self.min_singular_value, self.max_error, self.stop_on_collision)
 
 
 @dataclass(frozen=True)
@@ -88,6 +56,11 @@ class StopRules:
     min_singular_value: float
     max_error: float
     stop_on_collision: bool = True
+
+    @classmethod
+    def of(cls, settings: TrackingSettings) -> StopRules:
+        """The stop rules a tracker's settings state."""
+        return cls(settings.min_singular_value, settings.max_error, settings.stop_on_collision)
 
     def verdict(
         self,

@@ -1,14 +1,14 @@
-"""base-6dof: PUMA 560 arm (scaled by 0.4) on a planar base (paper 004; SPEC section 7).
+"""base-6dof: PUMA 560 arm (scaled by 0.4) on a planar base ([Nagatani]).
 
-q = (x, y, theta, q1, ..., q6). The arm follows Corke's standard DH parameters of the
-PUMA 560 scaled by 0.4 (a2 = 0.17272, a3 = 0.00812, d3 = 0.06002, d4 = 0.17272 m; alpha =
-pi/2, 0, -pi/2, pi/2, -pi/2, 0), with the shoulder 0.45 m above the ground at the platform
-centre and a pen tool 0.10 m along the flange z axis. Each DH link i is modelled as a
-revolute joint about z followed by the fixed placement Tz(d_i) Tx(a_i) Rx(alpha_i), which
-becomes the origin of joint i+1. Joint limits are Corke's qlim; masses are nominal
-small boxes (004 is kinematic). Manipulability is 004's w = sqrt(det(J J^T)) of the 6x6 tool
-Jacobian of the arm (``manipulability="pose"``). The base is omnidirectional in the model
-(004 plans its path only).
+Set-up as in docs/manipulability_area.md. q = (x, y, theta, q1, ..., q6). The arm follows
+Corke's standard DH parameters of the PUMA 560 scaled by 0.4 (a2 = 0.17272, a3 = 0.00812, d3 =
+0.06002, d4 = 0.17272 m; alpha = pi/2, 0, -pi/2, pi/2, -pi/2, 0), with the shoulder 0.45 m
+above the ground at the platform centre and a pen tool 0.10 m along the flange z axis. Each DH
+link i is modelled as a revolute joint about z followed by the fixed placement Tz(d_i) Tx(a_i)
+Rx(alpha_i), which becomes the origin of joint i+1. Joint limits are Corke's qlim; masses are
+nominal small boxes ([Nagatani] is kinematic). Manipulability is [Nagatani]'s w = sqrt(det(J
+J^T)) of the 6x6 tool Jacobian of the arm (``manipulability="pose"``). The base is
+omnidirectional in the model ([Nagatani] plans its path only).
 """
 
 from __future__ import annotations
@@ -93,5 +93,5 @@ def build() -> Robot:
         EndEffector("flange", (0.0, 0.0, TOOL), manipulability="pose"),
         limits,
         collision,
-        description="PUMA 560 (scaled 0.4) on a planar base, paper 004 (manipulability area).",
+        description="PUMA 560 (scaled 0.4) on a planar base, [Nagatani] (manipulability areas).",
     )

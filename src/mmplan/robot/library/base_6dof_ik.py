@@ -1,8 +1,9 @@
-r"""Vectorized kinematics of the scaled PUMA 560 arm of base-6dof (paper 004; SPEC section 1).
+r"""Vectorized kinematics of the scaled PUMA 560 arm of base-6dof ([Nagatani]).
 
-All functions work on batches: joint arrays are (N, 6), poses are given in the *arm frame*
-(origin at the shoulder, z vertical, x along the platform heading), so one call covers a
-whole grid of candidate base positions without a Python loop over cells.
+The arm is defined in docs/conventions.md. All functions work on batches: joint arrays are (N, 6),
+poses are given in the *arm frame* (origin at the shoulder, z vertical, x along the platform
+heading), so one call covers a whole grid of candidate base positions without a Python loop over
+cells.
 
 Standard DH (Corke's PUMA 560, scaled by 0.4): link i is
 :math:`T_i = R_z(q_i) T_z(d_i) T_x(a_i) R_x(\alpha_i)`, with d = (0, 0, d3, d4, 0, 0),
@@ -10,7 +11,7 @@ a = (0, a2, a3, 0, 0, 0), alpha = (pi/2, 0, -pi/2, pi/2, -pi/2, 0). The tool tip
 ``tool`` metres along the flange z axis.
 
 Inverse kinematics (closed form, the branch labels of Corke's ``ikine_a``/Paul and Zhang
-(1986); the default is SPEC section 1's "shoulder +, elbow up, no flip" = Corke's "run"):
+(1986); the default is docs/conventions.md's "shoulder +, elbow up, no flip" = Corke's "run"):
 
 * wrist centre :math:`p_w = p - t\,z_6`; with :math:`r = a_2 c_2 + a_3 c_{23} - d_4 s_{23}`
   and :math:`z = a_2 s_2 + a_3 s_{23} + d_4 c_{23}`, the FK gives
@@ -23,14 +24,14 @@ Inverse kinematics (closed form, the branch labels of Corke's ``ikine_a``/Paul a
   :math:`D^2 = r^2 + z^2`, :math:`L^2 = a_3^2 + d_4^2`; then :math:`q_2 + q_3 =
   \mathrm{atan2}(z - a_2 s_2, r - a_2 c_2) - \mathrm{atan2}(d_4, a_3)`. Note: with this DH
   convention Corke's "u" (shoulder +) puts the elbow *below* the shoulder-wrist line in the
-  (r, z) plane; it is the branch that reproduces SPEC section 7's reference numbers
+  (r, z) plane; it is the branch that reproduces the reference runs' numbers [RefRuns]
   (w min 0.00398 on its reference path; the other elbow gives 0.00249 there);
 * wrist not flipped (Corke's "n", ZYZ Euler angles with :math:`s_5 \le 0`): with
   :math:`a = R_{03}^T z_6 = (-c_4 s_5, -s_4 s_5, c_5)`,
   :math:`q_5 = -\mathrm{atan2}(\sqrt{a_x^2 + a_y^2}, a_z)`, :math:`q_4 = \mathrm{atan2}(a_y,
   a_x)`; flipped: :math:`q_4 + \pi, -q_5`; :math:`q_6` from the flange x axis in frame 5.
 
-Manipulability (Yoshikawa, eq. (1) of 004) of the 6x6 Jacobian of the tool tip (linear
+Manipulability (Yoshikawa, [Nagatani] eq. (1)) of the 6x6 Jacobian of the tool tip (linear
 velocity [m/s] and angular velocity [rad/s] per joint rate): :math:`w = |\det J|`, in
 closed form :math:`w = a_2 |s_5|\,|d_4 c_3 + a_3 s_3|\,|r|` (independent of q1, q4, q6 and
 of the tool length).
@@ -260,7 +261,7 @@ def jacobian(geom: PumaGeometry, q: Array) -> Array:
 def manipulability(geom: PumaGeometry, q: Array) -> Array:
     """Closed-form :math:`w = \\sqrt{\\det(J J^T)} = a_2 |s_5| |d_4 c_3 + a_3 s_3| |r|`, (N,).
 
-    Implements eq. (1) of 004 for the PUMA structure (see the module docstring).
+    Implements [Nagatani] eq. (1) for the PUMA structure (see the module docstring).
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
     a2, a3, d4 = geom.a[1], geom.a[2], geom.d[3]

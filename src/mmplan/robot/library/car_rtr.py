@@ -1,13 +1,13 @@
-"""car-rtr: kinematic car with an RTR arm (paper 002, section III).
+"""car-rtr: kinematic car with an RTR arm ([JaniakTchon], section III).
 
 q = (x, y, phi, psi, x1, x2, x3); platform controls u = (u1, u2):
 ``dx = u1 cos phi cos psi, dy = u1 sin phi cos psi, dphi = u1 sin psi, dpsi = u2``
 (car length 1). Arm: x1 rotation about the vertical at the platform point (x, y),
 x2 vertical prismatic, x3 rotation raising the last link, so that
 ``y = (x + (l2 + l3 cos x3) cos(phi + x1), y + (l2 + l3 cos x3) sin(phi + x1), x2 + l3 sin x3)``.
-l2 = l3 = 0.5 (not printed; SPEC section 1). The paper has no masses or limits: nominal
-masses (platform 10 kg box, links 1 kg rods and discs) serve only for dynamics, and joint limits are
-wide (+-2 pi for rotations, [-5, 5] m for x2) so that bounds come from the scenario.
+l2 = l3 = 0.5 (not printed; our choice, docs/conventions.md). The paper has no masses or limits:
+nominal masses (platform 10 kg box, links 1 kg rods and discs) serve only for dynamics, and joint
+limits are wide (+-2 pi for rotations, [-5, 5] m for x2) so that bounds come from the scenario.
 """
 
 from __future__ import annotations
@@ -63,5 +63,5 @@ def build() -> Robot:
         EndEffector("forearm", (L3, 0.0, 0.0)),
         limits,
         collision,
-        description="Kinematic car with an RTR arm, paper 002 (Tchon et al.).",
+        description="Kinematic car with an RTR arm, [JaniakTchon].",
     )

@@ -1,11 +1,11 @@
-"""diffdrive-3dof: (2,0) platform without wheel coordinates and a 3-dof arm (001 section 2).
+"""diffdrive-3dof: (2,0) platform without wheel coordinates and a 3-dof arm.
 
-q = (x, y, phi, theta1, theta2, theta3); eq. (2) of 001:
+From [AbdessemedDjebrani] section 2. q = (x, y, phi, theta1, theta2, theta3); its eq. (2):
 ``x_e = x + cos(theta1 + phi)(l2 cos theta2 + l3 cos(theta2 + theta3))``,
 ``y_e = y + sin(theta1 + phi)(...)``, ``z_e = l1 - l2 sin theta2 - l3 sin(theta2 + theta3)``
-with l1 = 0.6, l2 = 0.4, l3 = 0.3 (section 2 prints no numbers; SPEC reuses section 3's).
-Collision model (SPEC section 4): the platform as two discs of radius 0.2 m, at A and
-0.3 m ahead; arm links as points. Masses are nominal (001 is kinematic).
+with l1 = 0.6, l2 = 0.4, l3 = 0.3 (section 2 prints no numbers; we reuse section 3's).
+Collision model (our reading, docs/tracking.md): the platform as two discs of radius 0.2 m, at A and
+0.3 m ahead; arm links as points. Masses are nominal ([AbdessemedDjebrani] is kinematic).
 Arm limits (not printed): theta1 +-pi, theta2 [-pi/2, pi/2], theta3 [-2.5, 2.5] rad.
 """
 
@@ -81,5 +81,5 @@ def build() -> Robot:
         EndEffector("link3", (L3, 0.0, 0.0)),
         limits,
         collision,
-        description="(2,0) platform with a 3-dof arm, paper 001 section 2 (Abdessemed et al.).",
+        description="(2,0) platform with a 3-dof arm, [AbdessemedDjebrani] section 2.",
     )

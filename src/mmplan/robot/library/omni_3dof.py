@@ -1,10 +1,10 @@
-"""omni-3dof: omnidirectional platform with a 3-dof arm (paper 001 section 3, eq. (33)).
+"""omni-3dof: omnidirectional platform with a 3-dof arm ([AbdessemedDjebrani] section 3, eq. (33)).
 
 q = (x, y, theta, qa1, qa2, qa3);
 ``xi1 = x + (a + C1 (a3 C23 + a2 C2)) C_th - (b + S1 (a3 C23 + a2 C2)) S_th``,
 ``xi2 = y + (a + C1 (...)) S_th + (b + S1 (...)) C_th``, ``xi3 = z + a1 - a2 S2 - a3 S23``
 with a1 = 0.6, a2 = 0.4, a3 = 0.3, mounting offset (a, b) = (0.2, 0), platform height z = 0.
-Masses are nominal (001 is kinematic). Arm limits (not printed): qa1 +-pi,
+Masses are nominal ([AbdessemedDjebrani] is kinematic). Arm limits (not printed): qa1 +-pi,
 qa2 [-pi, pi/2], qa3 [-2.5, 2.5] rad.
 """
 
@@ -78,5 +78,5 @@ def build() -> Robot:
         EndEffector("link3", (A3, 0.0, 0.0)),
         limits,
         collision,
-        description="Omnidirectional platform with a 3-dof arm, paper 001 section 3.",
+        description="Omnidirectional platform with a 3-dof arm, [AbdessemedDjebrani] section 3.",
     )

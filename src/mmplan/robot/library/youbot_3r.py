@@ -1,15 +1,15 @@
-"""youbot-3r: KUKA youBot (2,0) platform with a 3R arm (paper 000, section 5).
+"""youbot-3r: KUKA youBot (2,0) platform with a 3R arm ([PajakPajak], section 5).
 
 q = [x, y, theta, phi1, phi2, q1, q2, q3]; n = 8, h = 3; actuators: 2 wheels + 3 joints.
 
-Geometry uses the rounded coefficients of 000's printed closed form, with
+Geometry uses the rounded coefficients of [PajakPajak]'s printed closed form, with
 alpha = theta - q1 and R = 0.03 + 0.16 cos q2 + 0.34 cos(q2 + q3):
 ``k = (x + 0.17 cos th + R cos alpha, y + 0.17 sin th + R sin alpha,
 0.25 - 0.16 sin q2 - 0.34 sin(q2 + q3))``. The q1 axis points down (so the arm heading is
 theta - q1) and positive q2, q3 lower the arm.
 
-Inertias are not printed (SPEC section 1): the platform is a uniform box
-0.456 x 0.316 x 0.046 m of 19.803 kg centred 0.084 m above the ground (003's z_c); wheels
+Inertias are not printed (our choice, docs/conventions.md): the platform is a uniform box
+0.456 x 0.316 x 0.046 m of 19.803 kg centred 0.084 m above the ground ([Pajak]'s z_c); wheels
 are thin uniform discs of 1.4 kg, r = 0.05; the arm base (0.961 kg) is a point mass at the
 mounting point on top of the platform; links are slender rods with the centre of mass at
 mid-length (1.39 kg over the 0.03 m offset, 1.318 kg over 0.16 m, 2.496 kg over 0.34 m).
@@ -94,5 +94,5 @@ def build() -> Robot:
         EndEffector("link3", (L3, 0.0, 0.0)),
         limits,
         collision,
-        description="KUKA youBot (2,0) platform with a 3R arm, paper 000 (Pajak & Pajak).",
+        description="KUKA youBot (2,0) platform with a 3R arm, [PajakPajak].",
     )

@@ -1,19 +1,20 @@
-"""youbot-4r: KUKA youBot (2,0) platform with a 4R arm (paper 003, section 5).
+"""youbot-4r: KUKA youBot (2,0) platform with a 4R arm ([Pajak], section 5).
 
 q = [x, y, theta, phi1, phi2, q1, q2, q3, q4]; n = 9, h = 3. With alpha = theta - q1 and
 L = l1 + l2 cos q2 + l3 cos(q2+q3) + l4 cos(q2+q3+q4):
 ``k = (x + xr cos th - yr sin th + L cos alpha, y + xr sin th + yr cos th + L sin alpha,
 zc + zr - l2 sin q2 - l3 sin(q2+q3) - l4 sin(q2+q3+q4))``.
 
-Parameters of 003 Table 1 (SPEC section 1): r = 0.05 (Table 1 prints 0.005), half track
-d = 0.158, zc = 0.084, xr = 0.167, yr = 0, zr = 0.161, l1..l4 = 0.033, 0.155, 0.135,
-0.1708. Masses: platform 19.803 (uniform box 0.456 x 0.316 x 0.046 at height zc), wheels
-1.4 (thin discs), links 1.39, 1.318, 0.821, 1.675 (slender rods, centre at mid-length).
-Friction (Coulomb 0.2, viscous 0.045 on the wheels) is available through
-``build(friction=True)`` and off by default (SPEC: Coulomb 0.2 N m equals the wheel limit).
-Joint limits are not printed in 003: we use the youBot's published ranges
+Parameters of [Pajak] Table 1 (read as in docs/conventions.md): r = 0.05 (Table 1 prints 0.005),
+half track d = 0.158, zc = 0.084, xr = 0.167, yr = 0, zr = 0.161, l1..l4 = 0.033, 0.155, 0.135,
+0.1708. Masses: platform 19.803 (uniform box 0.456 x 0.316 x 0.046 at height zc), wheels 1.4 (thin
+discs), links 1.39, 1.318, 0.821, 1.675 (slender rods, centre at mid-length). Friction (Coulomb 0.2,
+viscous 0.045 on the wheels) is available through ``build(friction=True)`` and off by default
+(docs/conventions.md: Coulomb 0.2 N m equals the wheel limit).
+Joint limits are not printed in [Pajak]: we use the youBot's published ranges
 q1 +-169 deg, q2 [-65, 90] deg, q3 [-151, 146] deg, q4 +-102.5 deg.
-Wheel labels follow 000 (eq. (25) of 003 swaps them; either way, SPEC).
+Wheel labels follow [PajakPajak] ([Pajak] eq. (25) swaps them; either way, see
+docs/conventions.md).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ DEG = np.pi / 180
 
 
 def build(friction: bool = False) -> Robot:
-    """Build youbot-4r (optionally with 003's wheel friction)."""
+    """Build youbot-4r (optionally with [Pajak]'s wheel friction)."""
     platform = DifferentialDrive(
         wheel_radius=WHEEL_RADIUS,
         half_track=HALF_TRACK,
@@ -110,5 +111,5 @@ def build(friction: bool = False) -> Robot:
         limits,
         collision,
         friction={"phi1": wheel_friction, "phi2": wheel_friction} if friction else None,
-        description="KUKA youBot (2,0) platform with a 4R arm, paper 003 (Pajak).",
+        description="KUKA youBot (2,0) platform with a 4R arm, [Pajak].",
     )

@@ -1,0 +1,91 @@
+"""The two path trackers of [AbdessemedDjebrani] as planners (docs/tracking.md).
+
+* ``pseudoinverse``: weighted-pseudoinverse tracking with joint-limit and obstacle potentials
+  in the null space ([AbdessemedDjebrani] section 2; :mod:`.pseudoinverse`);
+* ``impedance``: end-effector and platform-pose tracking on an omnidirectional base with a
+  virtual impedance around obstacles ([AbdessemedDjebrani] section 3; :mod:`.impedance`).
+
+Both compile one control step and roll it along the path with :func:`.result.track`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mmplan.planners.base import Planner, register
+from mmplan.planners.tracking.impedance import VirtualImpedance, platform_distances
+from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
+from mmplan.planners.tracking.result import track
+from mmplan.planners.tracking.settings import ImpedanceSettings, PseudoinverseSettings
+from mmplan.problem import Array, Problem, Progress
+from mmplan.task import TrackPath
+from mmplan.trajectory import Solution
+
+_PATH_HINT = "a path to track (goal.path)"
+
+
+@register
+class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
+    """Weighted-pseudoinverse path tracker with null-space potentials."""
+
+    settings_model = PseudoinverseSettings
+    task_type = TrackPath
+    task_hint = _PATH_HINT
+
+    def _solve(
+        self,
+        problem: Problem,
+        settings: PseudoinverseSettings,
+        task: TrackPath,
+        progress: Progress,
+    ) -> Solution:
+        """Track ``task`` from ``problem.start``."""
+        model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings)
+
+        def reference(t: float) -> Array:
+            return np.concatenate([task.position(t), task.velocity(t)])
+
+        return track(
+            problem,
+            settings,
+            task,
+            model.step,
+            np.asarray(problem.start, dtype=float),
+            reference,
+            model.smallest_singular_value,
+            progress,
+            lambda run: {"weights": [float(v) for v in model.w]},
+        )
+
+
+@register
+class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
+    """End-effector + platform-pose tracking with virtual impedance."""
+
+    settings_model = ImpedanceSettings
+    task_type = TrackPath
+    task_hint = _PATH_HINT
+
+    def _solve(
+        self,
+        problem: Problem,
+        settings: ImpedanceSettings,
+        task: TrackPath,
+        progress: Progress,
+    ) -> Solution:
+        """Track ``task`` from ``problem.start`` (plus the two impedance filter states)."""
+        model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings)
+        state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
+        return track(
+            problem,
+            settings,
+            task,
+            model.step,
+            state0,
+            lambda t: model.reference(task, t),
+            model.smallest_singular_value,
+            progress,
+            lambda run: (
+                platform_distances(model, task, run.t, run.q) if problem.scene.obstacles else {}
+            ),
+        )
