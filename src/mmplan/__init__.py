@@ -19,40 +19,94 @@ Example::
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
-from mmplan.errors import InputError, MmplanError, ModelError, PlanningError, UnknownNameError
-from mmplan.io.plan_folder import read_plan, read_summary, read_trajectory_csv, write_plan
-from mmplan.planners import Planner, PlannerSettings, Problem, get_planner, methods, register
-from mmplan.robot import Limits, Robot, get_robot, robot_names
-from mmplan.scenario.loader import (
-    Scenario,
-    ScenarioError,
-    builtin_scenarios,
-    load_scenario,
-    scenario_header,
-)
-from mmplan.scene import Scene, obstacle_from_dict
-from mmplan.task import (
-    DrawSegment,
-    LinePath,
-    PolynomialPath,
-    ReachPoint,
-    Task,
-    TrackPath,
-    WaypointPath,
-    completion_time,
-)
-from mmplan.trajectory import PlanResult, Status, Trajectory
+if TYPE_CHECKING:
+    from mmplan.errors import InputError, MmplanError, ModelError, PlanningError, UnknownNameError
+    from mmplan.io.plan_folder import read_plan, read_summary, read_trajectory_csv, write_plan
+    from mmplan.planners import Planner, PlannerSettings, Problem, get_planner, methods, register
+    from mmplan.robot import Limits, Robot, get_robot, robot_names
+    from mmplan.scenario import (
+        Scenario,
+        ScenarioError,
+        builtin_scenarios,
+        load_scenario,
+        scenario_header,
+    )
+    from mmplan.scene import Scene, obstacle_from_dict
+    from mmplan.task import (
+        DrawSegment,
+        LinePath,
+        PolynomialPath,
+        ReachPoint,
+        Task,
+        TrackPath,
+        WaypointPath,
+        completion_time,
+    )
+    from mmplan.trajectory import PlanResult, Status, Trajectory
+    from mmplan.verify.check import CheckReport, check
 
-# ``mmplan.check`` is the function: importing the submodule here first means no later
-# import can rebind the package attribute to the module.
-from mmplan.verify.check import CheckReport, check
+#: Public name -> the module that defines it. ``import mmplan`` loads none of them: each is
+#: imported on first use (``mmplan.check`` is always the checker function).
+_LAZY: dict[str, str] = {
+    **dict.fromkeys(
+        ["InputError", "MmplanError", "ModelError", "PlanningError", "UnknownNameError"],
+        "mmplan.errors",
+    ),
+    **dict.fromkeys(
+        ["read_plan", "read_summary", "read_trajectory_csv", "write_plan"], "mmplan.io.plan_folder"
+    ),
+    **dict.fromkeys(
+        ["Planner", "PlannerSettings", "Problem", "get_planner", "methods", "register"],
+        "mmplan.planners",
+    ),
+    **dict.fromkeys(["Limits", "Robot", "get_robot", "robot_names"], "mmplan.robot"),
+    **dict.fromkeys(
+        ["Scenario", "ScenarioError", "builtin_scenarios", "load_scenario", "scenario_header"],
+        "mmplan.scenario",
+    ),
+    **dict.fromkeys(["Scene", "obstacle_from_dict"], "mmplan.scene"),
+    **dict.fromkeys(
+        [
+            "DrawSegment",
+            "LinePath",
+            "PolynomialPath",
+            "ReachPoint",
+            "Task",
+            "TrackPath",
+            "WaypointPath",
+            "completion_time",
+        ],
+        "mmplan.task",
+    ),
+    **dict.fromkeys(["PlanResult", "Status", "Trajectory"], "mmplan.trajectory"),
+    **dict.fromkeys(["CheckReport", "check"], "mmplan.verify.check"),
+}
 
-try:
-    __version__ = version("mmplan")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0+unknown"
+
+def __getattr__(name: str) -> Any:
+    """Import a public name on first use (keeps ``import mmplan`` and ``mmplan --help`` light)."""
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value: Any = version("mmplan")
+        except PackageNotFoundError:  # pragma: no cover - running from a source tree
+            value = "0+unknown"
+    elif name in _LAZY:
+        from importlib import import_module
+
+        value = getattr(import_module(_LAZY[name]), name)
+    else:
+        raise AttributeError(f"module 'mmplan' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "CheckReport",

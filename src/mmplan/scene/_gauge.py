@@ -47,10 +47,13 @@ model of [PajakPajak] (1.4 s with exact seeds), 0.35-0.6 s for other exponents <
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 Array = NDArray[np.float64]
 
@@ -126,6 +129,8 @@ def _seed_tree(
         [np.stack(c, axis=1) for c in ((one, a, b), (a, one, b), (a, b, one))], axis=0
     )
     surf = dirs / gauge(dirs, P, Q)[:, None] * np.asarray(semi_axes)
+    from scipy.spatial import cKDTree  # lazy: 0.2 s to import, needed only here
+
     return surf, cKDTree(surf)
 
 
