@@ -44,9 +44,8 @@ from mmplan.planners.extended_jacobian import rollout as ej_rollout
 from mmplan.planners.extended_jacobian.criterion import build_criterion, choose_partition
 from mmplan.planners.extended_jacobian.generator import ObstacleTerm, build_functions
 from mmplan.planners.extended_jacobian.online import OnlineGenerator
+from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian, ExtendedJacobianSettings
-from mmplan.planners.extended_jacobian.rollout import RolloutOptions
-from mmplan.planners.extended_jacobian.torque import virtual_control as vc
 from mmplan.planners.extended_jacobian.torque.decision import decide
 from mmplan.scenario.loader import load_scenario
 from mmplan.task import ReachPoint, completion_time
@@ -221,15 +220,8 @@ def time_steps() -> None:
     rng = np.random.default_rng(0)
     dq = robot.null_basis(q) @ rng.normal(size=robot.n - robot.h) * 0.1
     ext = np.zeros(robot.n)
-    lo, hi = vc.safety_zone(robot.limits.torque_min, robot.limits.torque_max, 0.1)
-    options = RolloutOptions(
-        dt=0.002,
-        t_max=1.0,
-        stop_error=5e-4,
-        gains=(settings.lambda_p, settings.lambda_v, settings.lambda_ii),
-        torque_control=True,
-        zone=(lo, hi),
-        limits=(robot.limits.torque_min, robot.limits.torque_max),
+    options = RolloutOptions.from_settings(
+        settings.model_copy(update={"dt": 0.002, "t_max": 1.0}), robot, problem.task.tolerance
     )
     rows = {}
     for label, codegen in (("SX virtual machine (baseline)", False), ("compiled C", True)):

@@ -35,10 +35,6 @@ class EtaSettings(PlannerSettings):
 class EtaPlanner(Planner[EtaSettings, Task]):
     """dq = N(q) eta, RK4."""
 
-    settings_model = EtaSettings
-    task_type = Task
-    task_hint = "any goal"
-
     def _solve(
         self, problem: Problem, s: EtaSettings, task: Task, progress: Progress
     ) -> Solution:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,6 +15,8 @@ Array = NDArray[np.float64]
 class Task(ABC):
     """A task for the end effector, with a tolerance that decides 'reached'."""
 
+    #: How a scenario file states this kind of goal (for error messages).
+    goal_form: ClassVar[str] = "a goal"
     tolerance: float
 
     @abstractmethod
@@ -25,6 +28,7 @@ class Task(ABC):
 class ReachPoint(Task):
     """Bring the end effector to ``position`` (3,) [m] within ``tolerance`` [m]."""
 
+    goal_form: ClassVar[str] = "a goal position (goal.position)"
     position: tuple[float, float, float]
     tolerance: float = 1e-3
 
@@ -54,6 +58,7 @@ class TrackPath(Task):
     |ee(t) - X_d(t)| ([AbdessemedDjebrani] sections 2 and 3).
     """
 
+    goal_form: ClassVar[str] = "a path to track (goal.path)"
     duration: float
 
     @abstractmethod
@@ -94,6 +99,7 @@ class DrawSegment(Task):
     segment parameter s in [0, 1]. The error is the distance to the point at parameter t.
     """
 
+    goal_form: ClassVar[str] = "a segment to draw (goal.segment {start, end, normal})"
     start: tuple[float, float, float]
     end: tuple[float, float, float]
     normal: tuple[float, float, float]

@@ -48,10 +48,6 @@ class CrashSettings(PlannerSettings):
 class CrashPlanner(Planner[CrashSettings, Task]):
     """Raises an unexpected exception (a bug), to check that no traceback reaches the user."""
 
-    settings_model = CrashSettings
-    task_type = Task
-    task_hint = "any goal"
-
     def _solve(
         self, problem: Problem, settings: CrashSettings, task: Task, progress: Progress
     ) -> Solution:

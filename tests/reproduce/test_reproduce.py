@@ -29,6 +29,7 @@ from mmplan.reproduce.published import (
     Op,
     Reference,
 )
+from mmplan.reproduce.runs import RunSpec
 from mmplan.reproduce.table import HEADER, fmt_value
 
 FAST = ("car-rtr-free", "wall-segment")
@@ -147,7 +148,7 @@ def test_failed_scenario_is_a_row_and_exits_3(tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     real = repro.load_run
 
-    def broken(spec: repro.RunSpec) -> mmplan.Scenario:
+    def broken(spec: RunSpec) -> mmplan.Scenario:
         if spec.name == "car-rtr-free":
             raise ZeroDivisionError("planner bug")
         return real(spec)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from typing import Any, ClassVar, Generic, TypeVar
+from typing import Any, ClassVar, Generic, TypeVar, get_args, get_origin
 
 import numpy as np
 from pydantic import ValidationError
@@ -49,21 +49,28 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
     returns a :class:`~mmplan.trajectory.PlanResult` stamped with the method name and the
     wall-clock compute time of the whole call.
 
-    Class attributes a method sets:
-        settings_model: Its settings model; ``method`` is derived from it.
+    A method names its settings model and goal kind once, as the type arguments
+    (``class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint])``); the class
+    attributes below are derived from them.
+
+    Attributes:
+        settings_model: Its settings model.
         task_type: The goal kind it plans (:mod:`mmplan.task`).
-        task_hint: How a scenario file states that goal, for the error message.
+        method: The method name, the ``method`` literal of ``settings_model``.
     """
 
     method: ClassVar[str]
     settings_model: ClassVar[type[PlannerSettings]]
     task_type: ClassVar[type[Task]]
-    task_hint: ClassVar[str]
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        if "settings_model" in cls.__dict__:
-            cls.method = method_of(cls.settings_model)
+        for base in cls.__dict__.get("__orig_bases__", ()):
+            if get_origin(base) is Planner:
+                settings_model, task_type = get_args(base)
+                if isinstance(settings_model, type) and isinstance(task_type, type):
+                    cls.settings_model, cls.task_type = settings_model, task_type
+                    cls.method = method_of(settings_model)
 
     def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
         """Plan ``problem``; always returns a result whose status says how it ended.
@@ -84,7 +91,8 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
         if not isinstance(task, self.task_type):
             raise InputError(
                 "goal",
-                f"the {self.method} planner needs {self.task_hint}, got {type(task).__name__}",
+                f"the {self.method} planner needs {self.task_type.goal_form}, "
+                f"got {type(task).__name__}",
             )
         solution = self._solve(problem, settings, task, progress)  # type: ignore[arg-type]
         if progress is not None:

@@ -16,7 +16,6 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import yaml
 
@@ -26,49 +25,11 @@ from mmplan.io.plan_folder import write_plan
 from mmplan.planners import get_planner
 from mmplan.reproduce.evaluate import Evaluated, evaluate
 from mmplan.reproduce.published import REFERENCES, SCENARIOS, VARIANTS, Reference
+from mmplan.reproduce.runs import RunOutcome, RunSpec
 from mmplan.scenario.loader import Scenario, builtin_scenarios, load_scenario
 
 #: progress(run name, runs finished + fraction of the current run, number of runs)
 ProgressFn = Callable[[str, float, int], None]
-
-
-@dataclass(frozen=True)
-class RunSpec:
-    """One run: a built-in scenario, or a variant of one (``base`` set)."""
-
-    name: str
-    paper: str
-    base: str | None = None
-    planner: dict[str, Any] | None = None
-    note: str = ""
-
-
-@dataclass(frozen=True)
-class RunOutcome:
-    """What one run produced.
-
-    Attributes:
-        spec: The run.
-        directory: Its plan directory (may not exist when planning raised).
-        status: Planner status (reached, stalled, ...) or ``"error"`` when planning raised.
-        message: Planner message or the error.
-        wall_time_s: Load + plan + write (without the report).
-        report: report.html when written.
-        report_error: Why the report is missing (None when written or not asked for).
-    """
-
-    spec: RunSpec
-    directory: Path
-    status: str
-    message: str
-    wall_time_s: float
-    report: Path | None = None
-    report_error: str | None = None
-
-    @property
-    def planned(self) -> bool:
-        """A plan directory was written (whatever its status)."""
-        return self.status != "error"
 
 
 @dataclass(frozen=True)

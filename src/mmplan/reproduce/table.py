@@ -11,15 +11,13 @@ import datetime as dt
 import html
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import mmplan
 from mmplan.errors import InputError
 from mmplan.io.plan_folder import read_summary
 from mmplan.reproduce.evaluate import Evaluated, Value
-
-if TYPE_CHECKING:
-    from mmplan.reproduce.run import RunOutcome
+from mmplan.reproduce.runs import RunOutcome
 
 HEADER = ("paper figure", "quantity", "paper", "ours", "difference", "verdict")
 RUN_HEADER = ("scenario", "paper", "status", "T(tol)", "compute time", "wall time", "report")

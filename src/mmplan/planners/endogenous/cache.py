@@ -1,4 +1,4 @@
-"""Reuse of compiled endogenous-planner models within one process (paper 002).
+"""Reuse of compiled endogenous-planner models within one process ([JaniakTchon]).
 
 Building an :class:`~mmplan.planners.endogenous.model.EndogenousModel` (symbolic build,
 C library load) costs about 10 ms; repeated plans of the same shape reuse it.

@@ -1,4 +1,4 @@
-"""Input checks of the endogenous planner (paper 002) that can be made before planning.
+"""Input checks of the endogenous planner ([JaniakTchon]) that can be made before planning.
 
 Everything here raises :class:`~mmplan.errors.InputError` naming the offending field:
 start of the wrong size, obstacles (the method has no obstacle model), basis lengths that do
@@ -49,7 +49,7 @@ def check_problem(
     if problem.scene.obstacles:
         raise InputError(
             "obstacles",
-            "the endogenous planner (paper 002) has no obstacle model; "
+            "the endogenous planner ([JaniakTchon]) has no obstacle model; "
             "remove the obstacles or choose another method",
         )
     n_u = len(robot.platform.actuators)

@@ -1,29 +1,29 @@
-r"""Compiled model of the endogenous configuration space planner (paper 002, Janiak & Tchoń).
+r"""Compiled model of the endogenous configuration space planner ([JaniakTchon]).
 
-The platform is driven by truncated Fourier controls (eq. (17) of 002)
+The platform is driven by truncated Fourier controls ([JaniakTchon] eq. (17))
 
 .. math::  u_i(t) = \sum_{j=0}^{s_i} \lambda_{ij} \varphi_j(t),\quad
            \varphi = (1, \sin\omega t, \cos\omega t, \sin 2\omega t, \cos 2\omega t, \dots),
            \ \omega = 2\pi / T,
 
-so ``u(t) = P(t) lambda``; with T = 1 this is SPEC section 6's basis. The platform moves as
+so ``u(t) = P(t) lambda``; with T = 1 this is the paper's basis (s.III). The platform moves as
 ``dq_p = G(q_p) u`` with G the platform block of the robot's kernel basis N(q) (for the
-kinematic car exactly eq. (16) of 002). Each state bound ``lb <= q_k <= ub`` (platform or arm
-coordinate) adds the extra state of eq. (18) of 002,
+kinematic car exactly [JaniakTchon] eq. (16)). Each state bound ``lb <= q_k <= ub`` (platform or
+arm coordinate) adds the extra state of eq. (18),
 
 .. math::  \dot w = r(q_k) + p(q_k - ub, a) + p(-q_k + lb, a),\quad
            p(x, a) = \mathrm{softplus}(a x) / a \ \text{(eq. (2))},\quad
            r(q_k) = \varrho\,(q_k - c)^2,
 
-with c = (lb + ub) / 2 (c = 0 for SPEC's symmetric bounds, where r = q_k^2 as in the paper),
+with c = (lb + ub) / 2 (c = 0 for the paper's symmetric bounds, where r = q_k^2 as printed),
 and an extra output y = w(T) with target ``\int_0^T r dt`` (eqs. (10)-(13), (19)); the target
 integral is carried as one more state ``v``. The output is
 ``y_r = (k(q_p(T), x), w(T))``.
 
-The end point map and its Jacobian (eq. (7) of 002)
+The end point map and its Jacobian ([JaniakTchon] eq. (7))
 ``J = [C(T) \int_0^T \Phi(T,t) B(t) P(t) dt, D(T)]`` come from integrating the state together
 with its sensitivity ``S = d(q_p, w)/d(lambda, x)``, ``dS/dt = A(t) S + d f/d(lambda, x)``
-(A, B as in section III of 002), so that ``J = C(T) S(T) + D(T)``. Only the columns of S
+(A, B as in [JaniakTchon] s.III), so that ``J = C(T) S(T) + D(T)``. Only the columns of S
 that the dynamics depend on are integrated (lambda and the bounded arm joints; the other arm
 columns of S stay zero). State and sensitivity are integrated by one fixed-step RK4 scheme
 (``steps`` steps on [0, T], basis values at t, t + h/2, t + h precomputed) inside one CasADi
@@ -63,7 +63,7 @@ class ResolvedBound:
 
 
 def plus_function(x: ca.SX, sharpness: float) -> ca.SX:
-    """Smooth plus function p(x, a) = x + ln(1 + exp(-a x)) / a (eq. (2) of 002).
+    """Smooth plus function p(x, a) = x + ln(1 + exp(-a x)) / a ([JaniakTchon] eq. (2)).
 
     Evaluated as softplus(a x) / a = (max(a x, 0) + log1p(exp(-|a x|))) / a, which does not
     overflow for large |a x|.
@@ -73,7 +73,8 @@ def plus_function(x: ca.SX, sharpness: float) -> ca.SX:
 
 
 class EndogenousModel:
-    """Compiled end point map, Jacobian and trajectory of the regularized system (10) of 002.
+    """Compiled end point map, Jacobian and trajectory of the regularized system ([JaniakTchon] eq.
+    (10)).
 
     Args:
         robot: The mobile manipulator; its platform contributes G(q_p) (kernel basis).
@@ -144,7 +145,8 @@ class EndogenousModel:
 
     # ------------------------------------------------------------------ symbolic pieces
     def control(self, phi: ca.SX, lam: ca.SX) -> ca.SX:
-        """u = P(t) lambda (eq. (17) of 002) from the basis values phi (max terms,), (n_u,)."""
+        """u = P(t) lambda ([JaniakTchon] eq. (17)) from the basis values phi (max terms,),
+        (n_u,)."""
         out, k = [], 0
         for terms in self.basis_terms:
             out.append(sum(lam[k + j] * phi[j] for j in range(terms)))
@@ -154,7 +156,7 @@ class EndogenousModel:
     def basis_values(self, t: Array, derivative: bool = False) -> Array:
         """phi_j(t) (or d phi_j / dt) for j < max(basis_terms) at times t (N,), (max terms, N).
 
-        phi = (1, sin wt, cos wt, sin 2wt, cos 2wt, ...), w = 2 pi / T (eq. (17) of 002).
+        phi = (1, sin wt, cos wt, sin 2wt, cos 2wt, ...), w = 2 pi / T ([JaniakTchon] eq. (17)).
         """
         t = np.asarray(t, dtype=np.float64)
         omega = 2 * np.pi / self.horizon
@@ -191,7 +193,7 @@ class EndogenousModel:
         dyn = ca.vertcat(lam, x[x_dyn]) if x_dyn else lam
         n_zs, n_dyn = zs.numel(), dyn.numel()
         S = ca.SX.sym("S", n_zs, n_dyn)
-        dS = ca.jacobian(fs, zs) @ S + ca.jacobian(fs, dyn)  # A S + B P (002, section III)
+        dS = ca.jacobian(fs, zs) @ S + ca.jacobian(fs, dyn)  # A S + B P ([JaniakTchon] s.III)
         state = ca.vertcat(zs, v, ca.vec(S))
         rhs = ca.Function("rhs", [state, phi, lam, x], [ca.vertcat(fs, fv, ca.vec(dS))])
         rhs_plain = ca.Function("rhs_plain", [qp, phi, lam], [G @ u])
@@ -242,8 +244,8 @@ class EndogenousModel:
         D_full = ca.horzcat(
             ca.MX.zeros(self.n_out, self.n_lambda), ca.vertcat(D, ca.MX.zeros(n_b, n_x))
         )
-        J = C_full @ ST @ ca.DM(select) + D_full  # eq. (7) of 002, (3 + n_b, n_par)
-        e = ca.vertcat(k(ca.vertcat(qpT, x_m)) - yd_m, wT - vT)  # eq. (19) of 002
+        J = C_full @ ST @ ca.DM(select) + D_full  # [JaniakTchon] eq. (7), (3 + n_b, n_par)
+        e = ca.vertcat(k(ca.vertcat(qpT, x_m)) - yd_m, wT - vT)  # [JaniakTchon] eq. (19)
         self.endpoint = ca.Function(
             "endpoint",
             [qp0_m, lam_m, x_m, yd_m],
@@ -265,17 +267,17 @@ class EndogenousModel:
 
     # ------------------------------------------------------------------ numpy API
     def evaluate(self, qp0: Array, lam: Array, x: Array, yd: Array) -> tuple[Array, Array]:
-        """Error e_r (n_out,) of eq. (19) and Jacobian J (n_out, n_par) of eq. (7) of 002.
+        """Error e_r (n_out,) of [JaniakTchon] eq. (19) and Jacobian J (n_out, n_par) of eq. (7).
 
         J is the Jacobian of the output y_r = (k, w(T)); the bound rows include the
         regularizer, while the error's bound entries are w(T) - int r dt = int p dt: the
-        derivative of the target is left out as in eq. (13) of 002.
+        derivative of the target is left out as in [JaniakTchon] eq. (13).
         """
         e, J, _ = self._endpoint(qp0, lam, x, yd)
         return e, J
 
     def regularizer_integrals(self, qp0: Array, lam: Array, x: Array) -> Array:
-        """Targets int_0^T r(q_k) dt of the bound outputs (eq. (19) of 002), (n_b,)."""
+        """Targets int_0^T r(q_k) dt of the bound outputs ([JaniakTchon] eq. (19)), (n_b,)."""
         return self._endpoint(qp0, lam, x, np.zeros(3))[2]
 
     def times(self) -> Array:

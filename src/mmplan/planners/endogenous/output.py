@@ -1,6 +1,6 @@
-"""Arm coordinates and the trajectory of an endogenous configuration (lambda, x) (paper 002).
+"""Arm coordinates and the trajectory of an endogenous configuration (lambda, x) ([JaniakTchon]).
 
-Bounded arm joints: in paper 002 the arm joints x are constants of the end point map. The
+Bounded arm joints: in [JaniakTchon] the arm joints x are constants of the end point map. The
 paper's extra state (eq. (18)) with its regularizer r(x_k) then pins a bounded joint: the
 Wazewski-Davidenko equation (13) asks the output T (r(x_k) + p + p) to follow only the small
 penalty error, and nothing but x_k moves it, so x_k stays put (measured: 3 of 5 random plans
@@ -12,7 +12,7 @@ The platform follows the controls u(t) = P(t) lambda from the platform start (th
 :class:`~mmplan.planners.endogenous.model.EndogenousModel`); dq_p = G(q_p) u and
 ddq_p = (dG/dq dq_p) u + G du/dt are analytic in the controls.
 
-In paper 002 the arm configuration x is a constant of the end point map: only its value at
+In [JaniakTchon] the arm configuration x is a constant of the end point map: only its value at
 t = T matters. So that the trajectory starts at the given start q0 (arm part x0), the arm moves
 from x0 to x along a quintic rest-to-rest blend s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5,
 tau = t / T, which leaves the end point (and the task error) unchanged. A revolute arm joint
@@ -94,7 +94,8 @@ def blend(t: Array, horizon: float) -> tuple[Array, Array, Array]:
 def build_trajectory(
     robot: Robot, model: EndogenousModel, start: Array, lam: Array, x: Array
 ) -> Trajectory:
-    """Trajectory (SPEC section 8 columns plus u1..um) of (lambda, x) from ``start``."""
+    """Trajectory (the trajectory.csv columns of docs/conventions.md plus u1..um) of (lambda, x)
+    from ``start``."""
     n_p = robot.n_platform
     qp, dqp, ddqp, u = model.trajectory(start[:n_p], lam)
     t = model.times()

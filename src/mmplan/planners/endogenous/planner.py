@@ -1,7 +1,7 @@
-r"""Endogenous configuration space planner with state bounds (paper 002, Janiak & Tchoń).
+r"""Endogenous configuration space planner with state bounds ([JaniakTchon]).
 
 The endogenous configuration (lambda, x) -- Fourier coefficients of the platform controls
-and the arm joints -- is moved along the theta-iteration of eq. (14)/(20) of 002,
+and the arm joints -- is moved along the theta-iteration of [JaniakTchon] eqs. (14), (20),
 
 .. math::  (\lambda, x) \leftarrow (\lambda, x) - \gamma J^{\#}(\lambda, x)\, e_r(\lambda, x),
 
@@ -13,12 +13,12 @@ coordinates enter as extra states and outputs (eqs. (10)-(13), (18)); bounds on 
 saturating coordinate x_k = c + h tanh(xi_k) (:class:`~mmplan.planners.endogenous.output.ArmBox`).
 
 Start: ``problem.start`` is the full q0 in robot order; its platform part is the platform
-start q0 and its arm part is the initial arm configuration x0 (SPEC section 6 gives
+start q0 and its arm part is the initial arm configuration x0 (the paper's examples, s.III, use
 q0 = (20, 0, pi/2, 0) and x0 = (0, 1, pi/2): start = (20, 0, pi/2, 0, 0, 1, pi/2)).
 Only ``lambda0`` is a planner setting. ``t_max`` is not used; the budget is
 ``max_iterations``. The planner has no obstacle model and refuses a scene with obstacles.
 
-Scenario form (SPEC section 8)::
+Scenario form (docs/conventions.md, docs/endogenous.md)::
 
     goal: {position: [0, 0, 2], tolerance: 1.0e-4}
     planner:
@@ -65,10 +65,6 @@ Array = NDArray[np.float64]
 class EndogenousPlanner(Planner[EndogenousSettings, ReachPoint]):
     """Jacobian pseudoinverse planner in the endogenous configuration space ([JaniakTchon])."""
 
-    settings_model = EndogenousSettings
-    task_type = ReachPoint
-    task_hint = "a goal position (goal.position)"
-
     def _solve(
         self, problem: Problem, settings: EndogenousSettings, task: ReachPoint, progress: Progress
     ) -> Solution:
@@ -76,7 +72,7 @@ class EndogenousPlanner(Planner[EndogenousSettings, ReachPoint]):
         bounds, lam0 = check_problem(problem, settings)
         robot = problem.robot
         n_p = robot.n_platform
-        state_bounds = [b for b in bounds if b.index < n_p]  # extra states, eq. (18) of 002
+        state_bounds = [b for b in bounds if b.index < n_p]  # extra states, [JaniakTchon] eq. (18)
         box = ArmBox(n_p, robot.n - n_p, [b for b in bounds if b.index >= n_p])
         model = get_model(
             robot,
@@ -115,7 +111,7 @@ class EndogenousPlanner(Planner[EndogenousSettings, ReachPoint]):
 def _evaluate(
     model: EndogenousModel, box: ArmBox, qp0: Array, lam: Array, xi: Array, yd: Array
 ) -> tuple[Array, Array]:
-    """e_r and J (eqs. (19), (7) of 002) in the iteration coordinates (lambda, xi)."""
+    """e_r and J ([JaniakTchon] eqs. (19), (7)) in the iteration coordinates (lambda, xi)."""
     e, J = model.evaluate(qp0, lam, box.to_x(xi), yd)
     J[:, model.n_lambda :] *= box.scale(xi)[None, :]
     return e, J
@@ -147,7 +143,8 @@ def _iterate(
     bound_tol: float,
     progress: Progress,
 ) -> _Run:
-    """Theta-iteration eq. (14)/(20) of 002 with explicit Euler step 1; sets status and message."""
+    """Theta-iteration [JaniakTchon] eqs. (14), (20) with explicit Euler step 1; sets status and
+    message."""
     run = _Run(lam.copy(), x.copy())
     n_lam = model.n_lambda
     first = None
@@ -199,7 +196,7 @@ def _iterate(
 
 def _budget_status(run: _Run, tol: float, iterations: int) -> tuple[Status, str]:
     """Status when the iteration limit ends the run: stalled, or infeasible when the task is
-    met but the bound outputs (eq. (18) of 002) stopped decreasing."""
+    met but the bound outputs ([JaniakTchon] eq. (18)) stopped decreasing."""
     task, total = run.task_errors[-1], run.errors[-1]
     window = max(2, len(run.errors) // 10)
     bound = np.sqrt(np.maximum(np.square(run.errors) - np.square(run.task_errors), 0.0))

@@ -39,7 +39,7 @@ class BoundSetting(BaseModel):
 
 
 class EndogenousSettings(PlannerSettings):
-    """Settings of the endogenous configuration space planner (SPEC section 6 defaults)."""
+    """Settings of the endogenous configuration space planner (defaults: docs/endogenous.md)."""
 
     method: Literal["endogenous"] = "endogenous"
     t_max: float = Field(

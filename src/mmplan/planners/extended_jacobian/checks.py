@@ -129,10 +129,10 @@ def check_gravity(robot: Robot, q0: Array) -> None:
 def fit_influence(obstacles: Sequence[ObstacleTerm], p_f: Array) -> list[ObstacleTerm]:
     """Shrink each neighbourhood delta so that the goal lies outside it.
 
-    With the goal inside an obstacle's neighbourhood the perturbation (eq. (19) of 000) and the
-    attraction reach an equilibrium short of the goal (measured: stalls 0.07-0.1 m away on
-    random scenes). delta becomes min(delta, max(0.05, 0.7 C(p_f))), C the radial distance of
-    the goal to the enlarged model.
+    With the goal inside an obstacle's neighbourhood the perturbation ([PajakPajak] eq. (19)) and
+    the attraction reach an equilibrium short of the goal (measured: stalls 0.07-0.1 m away on
+    random scenes). delta becomes min(delta, max(0.05, 0.7 C(p_f))), C the radial distance of the
+    goal to the enlarged model.
 
     Raises:
         InputError: the goal lies inside an enlarged obstacle (unreachable without contact).

@@ -4,7 +4,8 @@ Without torque control (u = s = 1) and outside an escape push (ext = 0) nothing 
 between steps except the stop tests, so ``chunk_steps`` steps run in one compiled call
 (:func:`mmplan.planners.extended_jacobian.generator.GeneratorFunctions.run_chunk`); with torque
 control in
-feedback mode the choice of s and u runs inside the chunk too (:mod:`ej_feedback`). The
+feedback mode the choice of s and u runs inside the chunk too
+(:mod:`~mmplan.planners.extended_jacobian.torque.feedback`). The
 caller's loop (:func:`mmplan.planners.extended_jacobian.rollout.rollout`) keeps every other
 decision:
 :func:`run` accepts the samples before the first one at which the loop would do anything
@@ -15,17 +16,14 @@ virtual-control choice) and the loop handles that sample itself.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
+from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
 from mmplan.planners.extended_jacobian.torque import feedback as ej_feedback
-
-if TYPE_CHECKING:
-    from mmplan.planners.extended_jacobian.rollout import RolloutOptions
 
 Array = NDArray[np.float64]
 

@@ -1,13 +1,13 @@
-r"""Symbolic core of the extended-Jacobian generator (papers 000 and 003, SPEC section 3).
+r"""Symbolic core of the extended-Jacobian generator ([PajakPajak], [Pajak]).
 
 Everything here is a CasADi SX expression in the robot's symbols ``q`` (n,), ``dq`` (n,)
 and a goal parameter ``p_f`` (3,); derivatives come from CasADi AD, never by hand.
 
-* Criterion, eq. (9) of 000 / (8) of 003:
+* Criterion, [PajakPajak] eq. (9), [Pajak] eq. (8):
   :math:`H(q) = -\mu(q_a) + \sum_i w/(q_i - q_{i,min}) + w/(q_{i,max} - q_i)` over the arm
-  joints (SPEC pitfall: the penalty acts over the whole range, otherwise q1 is undetermined
-  because mu does not depend on it and E is singular at the goal).
-* Transversality, eq. (11) of 000 / (9) of 003, with the stacked Jacobian Jc = [J; A]
+  joints (our choice, see docs/extended_jacobian.md: the penalty acts over the whole range,
+  otherwise q1 is undetermined because mu does not depend on it and E is singular at the goal).
+* Transversality, [PajakPajak] eq. (11), [Pajak] eq. (9), with the stacked Jacobian Jc = [J; A]
   (m+h, n) split into columns R (m+h) and F (n-m-h):
   :math:`g(q) = H_F - (Jc_R^{-1} Jc_F)^T H_R`; by default in the cheaper equal form of
   :mod:`mmplan.planners.extended_jacobian.structure` (3-4x fewer operations in the compiled step),
@@ -15,14 +15,15 @@ and a goal parameter ``p_f`` (3,); derivatives come from CasADi AD, never by han
   symbolic (m+h) solve with the robot's mu being the reference (``structured=False``).
 * Errors e_I = [k(q) - p_f; g(q)] (n-h,), e_II = A(q) dq (h,).
 * E = [de_I/dq; A] (n, n), v1 = [d/dt(de_I/dq) dq; d/dt(A) dq],
-  v2 = [Lambda_V de_I/dq dq + Lambda_P e_I; Lambda_II A dq], so that eq. (16) / (12) reads
-  ddq = -E^{-1}(v1 + v2).
+  v2 = [Lambda_V de_I/dq dq + Lambda_P e_I; Lambda_II A dq], so that [PajakPajak] eq. (16), [Pajak]
+  eq. (12) reads ddq = -E^{-1}(v1 + v2).
 
-Partition rule (SPEC pitfall: R must not contain the whole arm Jacobian): R holds every
+Partition rule (our choice, see docs/extended_jacobian.md: R must not contain the whole arm
+Jacobian, or Jc_R^-1 holds its inverse and the run diverges near arm singularities): R holds every
 platform coordinate (the wheel angles make A's columns invertible) plus the
 m + h - n_platform arm joints whose choice gives the best-conditioned Jc_R at the start
 q0; ties go to the earlier joint. For youbot-3r this selects R = {x, y, theta, phi1, phi2, q2}
-and F = {q1, q3} as in SPEC.
+and F = {q1, q3}, the partition of [RefRuns].
 """
 
 from __future__ import annotations
@@ -136,7 +137,7 @@ class Criterion:
 
 
 def joint_limit_penalty(q_arm: ca.SX, q_min: Array, q_max: Array, weight: float) -> ca.SX:
-    """sum_i w/(q_i - q_min,i) + w/(q_max,i - q_i) over the arm joints (SPEC section 3)."""
+    """sum_i w/(q_i - q_min,i) + w/(q_max,i - q_i), arm joints i (docs/extended_jacobian.md)."""
     terms = [
         weight / (q_arm[i] - q_min[i]) + weight / (q_max[i] - q_arm[i])
         for i in range(q_arm.numel())
@@ -147,7 +148,7 @@ def joint_limit_penalty(q_arm: ca.SX, q_min: Array, q_max: Array, weight: float)
 def build_criterion(
     robot: Robot, partition: Partition, weight: float = 0.01, structured: bool = True
 ) -> Criterion:
-    """Build H, g, e_I, E, v1 for ``robot`` (eqs. (9)-(16) of 000).
+    """Build H, g, e_I, E, v1 for ``robot`` ([PajakPajak] eqs. (9)-(16)).
 
     With ``structured`` (default) mu and g take the cheaper equal forms of
     :mod:`mmplan.planners.extended_jacobian.structure` (same values up to rounding, checked at two
@@ -180,7 +181,7 @@ def build_criterion(
 
 
 def reference_transversality(robot: Robot, partition: Partition, H: ca.SX) -> ca.SX:
-    """g = H_F - (Jc_R^-1 Jc_F)^T H_R (eq. (11) of 000) with a symbolic solve (reference)."""
+    """g = H_F - (Jc_R^-1 Jc_F)^T H_R ([PajakPajak] eq. (11)) with a symbolic solve (reference)."""
     s = robot.symbols
     Hq = ca.gradient(H, s.q)
     Jc = ca.vertcat(s.jacobian, s.pfaffian)

@@ -1,8 +1,8 @@
-"""Effort split of the extended-Jacobian generator: tau = T0 + Tm ddq (eq. (22) of 000).
+"""Effort split of the extended-Jacobian generator: tau = T0 + Tm ddq ([PajakPajak] eq. (22)).
 
-tau = (N^T B)^-1 N^T (M ddq + c) (SPEC section 3, virtual control) is affine in ddq; the
-generator needs T0 (with the velocity terms) and Tm at every sample, so their expressions are
-kept small (see :func:`effort_split`).
+tau = (N^T B)^-1 N^T (M ddq + c) ([PajakPajak] eqs. (21)-(22), [Pajak] eqs. (14)-(15)) is affine in
+ddq; the generator needs T0 (with the velocity terms) and Tm at every sample, so their expressions
+are kept small (see :func:`effort_split`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from mmplan.robot.robot import Robot
 
 
 def effort_split(robot: Robot) -> tuple[ca.SX, ca.SX]:
-    """T0 (n_act,) and Tm (n_act, n) with tau = T0 + Tm ddq (eq. (22) of 000).
+    """T0 (n_act,) and Tm (n_act, n) with tau = T0 + Tm ddq ([PajakPajak] eq. (22)).
 
     Without friction c(q, dq) = C(q, dq) dq + g(q) is rebuilt by Lagrange's equations from
     the kinetic energy T written with the bodies' velocities (sum m |v_c|^2 / 2 +

@@ -44,8 +44,8 @@ class GeneratorFunctions:
     ``terms_flat`` (x = [q; dq; p]) and ``step_flat`` (x = [q; dq; u; s; ext; p; dt])
     compute the same with one input and one output each (one NumPy conversion a call),
     compiled to C when ``compiled`` (then ``step_flat`` is the fused step of
-    :mod:`ej_step`, equal to rounding); ``chunk`` runs ``chunk_steps`` steps with records
-    in one call.
+    :mod:`~mmplan.planners.extended_jacobian.step`, equal to rounding); ``chunk`` runs
+    ``chunk_steps`` steps with records in one call.
     """
 
     step: ca.Function | None  # SX reference step (None when compiled)
@@ -59,10 +59,10 @@ class GeneratorFunctions:
     effort: ca.Function  # [q; dq] -> [Tm dq; Tg] (time scaling)
     chunk: ca.Function | None = None
     chunk_steps: int = CHUNK
-    record: ca.Function | None = None  # the fused step (x, par) -> (x_next, rec) of ej_step
-    native_chunk: Any = None  # cg.NativeFunction of chunk_flat (ej_step.build_chunk_flat)
+    record: ca.Function | None = None  # the fused step (x, par) -> (x_next, rec) of step.py
+    native_chunk: Any = None  # cg.NativeFunction of chunk_flat (step.build_chunk_flat)
     _last: Array | None = None
-    cache: dict[str, Any] = field(default_factory=dict)  # functions built later (ej_feedback)
+    cache: dict[str, Any] = field(default_factory=dict)  # functions built later (torque.feedback)
 
     def evaluate(self, q: Array, dq: Array, p: Array) -> Terms:
         """``terms`` at (q, dq) with parameters p = [p_f, Lambda_P, Lambda_V, Lambda_II]."""
@@ -74,7 +74,8 @@ class GeneratorFunctions:
 
     def evaluate_many(self, Q: Array, DQ: Array) -> tuple[Array, Array]:
         """beta = Tm dq and Tg (each (N, n_act)) at N states (rows of Q, DQ), one call of
-        ``effort`` (the coefficients of the time scaling, :mod:`ej_timescale`, when the
+        ``effort`` (the coefficients of the time scaling,
+        :mod:`~mmplan.planners.extended_jacobian.time_scaling`, when the
         compiled chunks did not record them)."""
         N = len(Q)
         X = np.vstack([np.asarray(Q, dtype=float).T, np.asarray(DQ, dtype=float).T])
@@ -94,7 +95,8 @@ class GeneratorFunctions:
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float
     ) -> tuple[Array, Array]:
         """``chunk_steps`` steps from (q, dq): states after each step (K, 2n) and the records
-        (K, n + n_act + 2) = [ddq, tau, err, f] at each step's start (:mod:`ej_step`)."""
+        (K, n + n_act + 2) = [ddq, tau, err, f] at each step's start
+        (:mod:`~mmplan.planners.extended_jacobian.step`)."""
         if self.chunk is None:
             raise RuntimeError("no chunk function")
         par = np.concatenate([p, [u, s], ext, [dt]])

@@ -1,22 +1,24 @@
-r"""Compiled generator step of the extended-Jacobian planner (000 eqs. (16)-(24), 003 (12)-(18)).
+r"""Compiled generator step of the extended-Jacobian planner ([PajakPajak] eqs. (16)-(24),
+[Pajak] eqs. (12)-(18)).
 
 One symbolic model, two CasADi functions (optionally code-generated to C and compiled):
 
 ``terms(q, dq, p) -> (f0, fv, fp, S, T0, Tm, err, Tg, gK)`` at one state, with
 ``p = [p_f (3), Lambda_P, Lambda_V, Lambda_II]``:
 
-* f0 = -E^-1 v1 and fv = -E^-1 v2 (eq. (16) of 000 split so that eq. (23) reads
+* f0 = -E^-1 v1 and fv = -E^-1 v2 ([PajakPajak] eq. (16) split so that eq. (23) reads
   ddq = f0 + u fv + ...), computed with directional derivatives (jtimes), which keeps the
   expression about 5x smaller than differentiating de_I/dq as a matrix;
 * fp = P (-varrho G grad K): the obstacle push of eq. (19) projected into ker A with the
   wheel-metric projector P = I - W^-1 A^T (A W^-1 A^T)^-1 A, W^-1 = diag(1, .., 1/r^2 at the
-  wheel angles, .., 1) (SPEC pitfall: the Euclidean A^+ A shrinks the push ~800x); G weights
+  wheel angles, .., 1) (docs/extended_jacobian.md: the Euclidean A^+ A shrinks the push
+  ~800x); G weights
   the gradient (1 on platform coordinates, ``arm_weight`` on arm joints); near the goal its
   end-effector part fades out (:mod:`mmplan.planners.extended_jacobian.near_goal`);
 * S = varrho K, K = sum over collision points and obstacles of
   kappa_o = ((delta - C)/C)^2 for C < delta (C the radial distance to the enlarged
   superellipsoid): the damping rate of the term -varrho dq K of eq. (19);
-* T0, Tm: tau = T0 + Tm ddq (eq. (22) of 000), so that tau(u) = a u + b of eq. (24) has
+* T0, Tm: tau = T0 + Tm ddq ([PajakPajak] eq. (22)), so that tau(u) = a u + b of eq. (24) has
   a = Tm fv and b = T0 + Tm f0 + s Tm (fp - S dq) (s: perturbation budget, 1 without limits);
 * err = |k(q) - p_f|; Tg: the gravity part of T0 (T0 at dq = 0); gK = dK/dq (n,).
 
@@ -24,8 +26,9 @@ One symbolic model, two CasADi functions (optionally code-generated to C and com
 step of
 dt. The damping -s S(q) dq is integrated exactly, dq *= exp(-s S dt / 2), before and after
 one RK4 step of
-ddq = f0 + u fv + s fp + P ext (Strang splitting, SPEC "Stiffness"), then dq is projected into
-ker A(q+) (constraint stabilization, :mod:`ej_step`); u, s, ext are held.
+ddq = f0 + u fv + s fp + P ext (Strang splitting, docs/extended_jacobian.md), then dq is projected
+into ker A(q+) (constraint stabilization, :mod:`~mmplan.planners.extended_jacobian.step`); u, s, ext
+are held.
 """
 
 from __future__ import annotations
@@ -93,11 +96,12 @@ def build_functions(
     notify: Callable[[str], None] | None = None,
     cull: bool = True,
 ) -> GeneratorFunctions:
-    """Build ``terms``, ``step``, ``chunk`` and ``E`` for one problem (eqs. (16)-(24) of 000).
+    """Build ``terms``, ``step``, ``chunk`` and ``E`` for one problem ([PajakPajak] eqs. (16)-(24)).
 
     With ``codegen`` the flat functions are compiled to C (cached; ``notify`` is told before
     a build that is not cached); with ``cull`` (default) the compiled step evaluates an
-    obstacle's terms only when a collision point is near it (:mod:`ej_obstacles`, exact).
+    obstacle's terms only when a collision point is near it
+    (:mod:`~mmplan.planners.extended_jacobian.obstacles`, exact).
     """
     s = robot.symbols
     n = robot.n
@@ -150,7 +154,7 @@ def build_functions(
         ["q", "dq", "p"],
         ["f0", "fv", "fp", "S", "T0", "Tm", "err", "Tg", "gK"],
     )
-    # Stage acceleration and damping rate of the Strang-split RK4 step (ej_step).
+    # Stage acceleration and damping rate of the Strang-split RK4 step (step.py).
     u, sp = ca.SX.sym("u"), ca.SX.sym("s")
     ext = ca.SX.sym("ext", n)
     accel = ca.Function("acc", [q, dq, u, sp, ext, p], [f0 + u * fv + sp * fp + P @ ext])
@@ -173,7 +177,7 @@ def build_functions(
         key = "\n".join([key_fn.serialize(), str(cull), *(Path(m).read_text() for m in _SOURCES)])
 
         def make() -> list[ca.Function]:
-            if obstacles and cull:  # obstacle blocks only where a point is near (ej_obstacles)
+            if obstacles and cull:  # obstacle blocks only where a point is near (obstacles.py)
                 winv = wheel_metric_inverse(robot)
                 finish = ej_nearpush.finish_function(robot, A, q, p, winv)
                 ob_terms, ob_damp = obstacle_functions(robot, obstacles, P, G, varrho, finish)

@@ -1,10 +1,10 @@
-r"""Shaping of the obstacle push of eq. (19) of 000 (measured failures on random scenes).
+r"""Shaping of the obstacle push of [PajakPajak] eq. (19) (measured failures on random scenes).
 
-Two fixes, both applied to the symbolic push in :mod:`ej_dynamics`: near the goal its
-end-effector component fades out (:func:`project_push`, :func:`fade`); arm components that
-drive a joint into its limit fade out (:func:`fade_at_limits`).
+Two fixes, both applied to the symbolic push in :mod:`~mmplan.planners.extended_jacobian.generator`:
+near the goal its end-effector component fades out (:func:`project_push`, :func:`fade`); arm
+components that drive a joint into its limit fade out (:func:`fade_at_limits`).
 
-Eq. (19) of 000 adds the push ddq_p in the null space of A only, so it also moves the end
+[PajakPajak] eq. (19) adds the push ddq_p in the null space of A only, so it also moves the end
 effector. Near the goal, with part of the body inside an obstacle's neighbourhood (delta) but
 far from contact, the push and the attraction of eq. (16) balance short of the goal (measured
 on the random youbot-3r set: stalls 0.009-0.18 m from the goal, 0.29 m from the obstacle).
@@ -17,12 +17,12 @@ stays) and loses a fraction sigma of its task part:
     \qquad J_c = [J; A],
 
 so that J f_p' = (1 - sigma) J f_p and A f_p' = 0 (still in ker A, wheel metric W as the
-projector of :mod:`ej_dynamics`). sigma = near(|k - p_f|) safe(K): near is 1 within
-``r_in`` of the goal and fades to 0 at ``r_out``; safe is 1 for K <= ``K_LO`` and fades to 0
-at ``K_HI`` (smoothsteps), so the full push returns when a point comes deep into a
-neighbourhood (kappa = ((delta - C)/C)^2 is 1 at C = delta / 2, 4 at C = delta / 3). sigma
-must be exactly 1 near the goal: any task part left balances the attraction at
-|e| ~ |J f_p| / Lambda_P (measured 0.016 m with safe = exp(-K), K = 0.06).
+projector of :mod:`~mmplan.planners.extended_jacobian.generator`). sigma = near(|k - p_f|) safe(K):
+near is 1 within ``r_in`` of the goal and fades to 0 at ``r_out``; safe is 1 for K <= ``K_LO`` and
+fades to 0 at ``K_HI`` (smoothsteps), so the full push returns when a point comes deep into a
+neighbourhood (kappa = ((delta - C)/C)^2 is 1 at C = delta / 2, 4 at C = delta / 3). sigma must be
+exactly 1 near the goal: any task part left balances the attraction at |e| ~ |J f_p| / Lambda_P
+(measured 0.016 m with safe = exp(-K), K = 0.06).
 """
 
 from __future__ import annotations
@@ -102,8 +102,9 @@ def finish_function(
     robot: Robot, A: ca.SX, q: ca.SX, p: ca.SX, winv: NDArray[np.float64]
 ) -> Callable[[ca.MX, ca.MX, ca.MX, ca.MX], ca.MX]:
     """The push as applied (:func:`project_push`, then :func:`fade_at_limits`) for the culled
-    compiled step (:mod:`ej_obstacles`), as MX calls: the projection (a 6x6 solve) runs only
-    where its fade is positive (within ``R_OUT`` of the goal), the joint-limit fade always.
+    compiled step (:mod:`~mmplan.planners.extended_jacobian.obstacles`), as MX calls: the projection
+    (a 6x6 solve) runs only where its fade is positive (within ``R_OUT`` of the goal), the
+    joint-limit fade always.
 
     Args:
         robot: The robot. A: Its Pfaffian (h, n) in q. q: Coordinates symbol.

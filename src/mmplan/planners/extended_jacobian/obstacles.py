@@ -1,4 +1,4 @@
-r"""Obstacle terms of the generator with exact culling (000 eqs. (17)-(19); speed).
+r"""Obstacle terms of the generator with exact culling ([PajakPajak] eqs. (17)-(19); speed).
 
 The perturbation sums kappa_o(C) = ((delta - C)/C)^2 over every (collision point, obstacle)
 pair, 0 where C >= delta (:func:`obstacle_penalty`). On youbot3r-obstacles that is
@@ -15,8 +15,9 @@ circuit, a CasADi ``Switch``):
   box, every kappa of the group and its gradient are exactly 0. Culling is exact: the same
   values as the full sum to rounding (tested), not an approximation.
 * ``obstacle_terms(q, p) -> (S, fp)``, S = varrho K and fp = P (-varrho G dK/dq) (after
-  :mod:`ej_nearpush`, which needs the goal in p) as in :mod:`ej_dynamics`, the push computed
-  only when some block is near; ``obstacle_damping(q) -> S``.
+  :mod:`~mmplan.planners.extended_jacobian.near_goal`, which needs the goal in p) as in
+  :mod:`~mmplan.planners.extended_jacobian.generator`, the push computed only when some block is
+  near; ``obstacle_damping(q) -> S``.
 
 Measured (CPU time of one compiled step on youbot3r-obstacles-torque, same run, dt 10 ms;
 ``python bench/bench_extended_jacobian.py``): 28.6 us full vs 8.9 us culled near the start
@@ -163,7 +164,8 @@ def obstacle_functions(
         projector: P(q) (n, n), the wheel-metric projector into ker A.
         weights: G (n,), gradient weight per coordinate.
         varrho: Perturbation gain.
-        finish: (q, p, fp_raw, K) -> the push as applied (MX; :mod:`ej_nearpush`),
+        finish: (q, p, fp_raw, K) -> the push as applied
+            (MX; :mod:`~mmplan.planners.extended_jacobian.near_goal`),
             evaluated with the projection only when some block is near (else fp = 0).
     """
     s = robot.symbols

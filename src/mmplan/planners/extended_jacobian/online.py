@@ -1,8 +1,8 @@
 """The extended-Jacobian generator as an online step for a control loop.
 
-State in, (ddq, tau, u) out: the generator terms (eq. (16) of 000 split as
+State in, (ddq, tau, u) out: the generator terms ([PajakPajak] eq. (16) split as
 ddq = f0 + u fv, the obstacle perturbation of eq. (19), tau = T0 + Tm ddq of eq. (22)) and
-the virtual-control choice of section 4 (cases (a)-(d), growth law), exactly as in a planned
+the virtual-control choice of its s.4 (cases (a)-(d), growth law), exactly as in a planned
 rollout (:func:`mmplan.planners.extended_jacobian.torque.decision.decide`), in one CasADi call
 (:mod:`mmplan.planners.extended_jacobian.torque.decision_symbolic`; compiled to C when the
 planner's generator is,
@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mmplan.compile import codegen as cg
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
-from mmplan.planners.extended_jacobian.rollout import RolloutOptions
+from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import feedback as ej_feedback
 from mmplan.planners.extended_jacobian.torque.decision import decide
 

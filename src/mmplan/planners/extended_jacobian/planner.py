@@ -1,19 +1,20 @@
-r"""Extended-Jacobian planner (Pajak & Pajak, papers 000 and 003; SPEC section 3).
+r"""Extended-Jacobian planner ([PajakPajak], [Pajak]; see docs/extended_jacobian.md).
 
 A second-order trajectory generator drives the task error e_I = [k(q) - p_f; g(q)] and the
-Pfaffian error e_II = A(q) dq to zero (eq. (16) of 000 / (12) of 003), maximizing the arm's
-manipulability through the transversality condition g = 0 (eq. (11) / (9)), avoiding obstacles
-by a perturbation in the null space of A (eqs. (17)-(19)) and keeping actuator efforts inside
-their limits by the virtual control (eqs. (20)-(31) of 000, (13)-(22) of 003).
+Pfaffian error e_II = A(q) dq to zero ([PajakPajak] eq. (16), [Pajak] eq. (12)), maximizing the
+arm's manipulability through the transversality condition g = 0 (eq. (11) / (9)), avoiding obstacles
+by a perturbation in the null space of A (eqs. (17)-(19)) and keeping actuator efforts inside their
+limits by the virtual control ([PajakPajak] eqs. (20)-(31), [Pajak] eqs. (13)-(22)).
 
 Torque limits, two formulations (``virtual_control.mode``):
 
-* ``feedback``: eq. (23) of 000 / (17) of 003, u scales v2 (cases (a)-(d), growth laws of
-  000 and 003, u0 = 0); the obstacle perturbation gets its own factor fitted to the torque
-  budget (SPEC pitfall). Smooth torque start; used by youbot4r-reach-smooth.
+* ``feedback``: [PajakPajak] eq. (23), [Pajak] eq. (17), u scales v2 (cases (a)-(d), growth
+  laws of both papers, u0 = 0); the obstacle perturbation gets its own factor fitted to the
+  torque budget (so that it cannot drive the robot into an obstacle or break a limit). Smooth torque
+  start; used by youbot4r-reach-smooth.
 * ``time``: the unconstrained generator fixes a collision-free path and a time-optimal time
-  scaling w in [0, 1] keeps every effort in the safety zone (SPEC: "a true time scaling that
-  also scales the velocity terms"); default when the scene has obstacles.
+  scaling w in [0, 1] keeps every effort in the safety zone (a true time scaling, which
+  also slows the velocity terms); default when the scene has obstacles.
 
 Modules: :mod:`~mmplan.planners.extended_jacobian.settings` (settings),
 :mod:`~mmplan.planners.extended_jacobian.cache`
@@ -52,10 +53,10 @@ from mmplan.planners.extended_jacobian.generator import (
     wheel_metric_inverse,
 )
 from mmplan.planners.extended_jacobian.online import OnlineGenerator
-from mmplan.planners.extended_jacobian.rollout import RolloutOptions, rollout
+from mmplan.planners.extended_jacobian.options import RolloutOptions
+from mmplan.planners.extended_jacobian.rollout import rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
 from mmplan.planners.extended_jacobian.time_scaling import rollout_time_scaled
-from mmplan.planners.extended_jacobian.torque import virtual_control as vc
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint
 from mmplan.trajectory import Solution, Trajectory
@@ -80,10 +81,6 @@ class _Prepared:
 @register
 class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
     """Extended-Jacobian trajectory generator with virtual control ([PajakPajak], [Pajak])."""
-
-    settings_model = ExtendedJacobianSettings
-    task_type = ReachPoint
-    task_hint = "a goal position (goal.position)"
 
     def _solve(
         self,
@@ -151,7 +148,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         settings = cls.settings(problem.settings)
         robot, task = problem.robot, problem.task
         if not isinstance(task, ReachPoint):
-            raise InputError("goal", f"the {cls.method} planner needs {cls.task_hint}")
+            raise InputError("goal", f"the {cls.method} planner needs {ReachPoint.goal_form}")
         q0 = ej_checks.check_start(robot, problem.start)
         p_f = np.asarray(task.position, dtype=float)
         ej_checks.check_goal(robot, p_f)
@@ -175,37 +172,15 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             settings.codegen,
         )
         fns, build_time = built.fns, built.build_time
-        gains = (settings.lambda_p, settings.lambda_v, settings.lambda_ii)
-        ej_checks.check_conditioning(fns, q0, p_f, gains, settings.cond_limit)
-        vcs = settings.virtual_control
-        torque_control = robot.limits.has_torque_limits if vcs.enabled is None else vcs.enabled
-        if torque_control:
+        options = RolloutOptions.from_settings(settings, robot, task.tolerance)
+        ej_checks.check_conditioning(fns, q0, p_f, options.gains, settings.cond_limit)
+        if options.torque_control:
             ej_checks.check_gravity(robot, q0)
-        options = RolloutOptions(
-            dt=settings.dt,
-            t_max=settings.t_max,
-            stop_error=0.5 * task.tolerance,
-            gains=gains,
-            torque_control=torque_control,
-            zone=vc.safety_zone(robot.limits.torque_min, robot.limits.torque_max, vcs.eps_tau),
-            limits=(robot.limits.torque_min, robot.limits.torque_max),
-            eps_growth=vc.Growth(vcs.growth),
-            rho=vcs.rho,
-            rho_min=vcs.rho_min,
-            rho_max=vcs.rho_max,
-            budget_perturbation=vcs.budget_perturbation,
-            stall_window=settings.stall_window,
-            stall_progress=settings.stall_progress,
-            escape=settings.escape,
-            escape_gain=settings.escape_gain,
-            escape_time=settings.escape_time,
-            max_escapes=settings.max_escapes,
-            cond_limit=settings.cond_limit,
-        )
+        vcs = settings.virtual_control
         mode = vcs.mode
         if mode == "auto":
             mode = "time" if obstacles else "feedback"
-        time_scaling = torque_control and mode == "time"
+        time_scaling = options.torque_control and mode == "time"
         partitions = [partition]
 
         def switch(q: NDArray[np.float64]) -> GeneratorFunctions | None:

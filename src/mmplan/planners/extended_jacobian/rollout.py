@@ -1,13 +1,14 @@
 r"""Rollout of the extended-Jacobian generator with virtual control, stall escape and statuses.
 
-One loop step (dt, SPEC section 3): evaluate the generator terms at (q, dq)
+One loop step (dt; docs/extended_jacobian.md): evaluate the generator terms at (q, dq)
 (:mod:`mmplan.planners.extended_jacobian.generator`), decide the perturbation budget s and the
 virtual
 control u (:mod:`mmplan.planners.extended_jacobian.torque.virtual_control`), record the sample
-(ddq = f0 + u fv + s (fp - S dq) + ext and tau = T0 + Tm ddq, eq. (22)/(24) of 000), then
+(ddq = f0 + u fv + s (fp - S dq) + ext and tau = T0 + Tm ddq, [PajakPajak] eqs. (22), (24)), then
 advance one Strang-split RK4 step with u, s, ext held.
 
-Torque limits and obstacles (SPEC pitfall): eq. (23) as printed scales the push by u, so the
+Torque limits and obstacles (docs/extended_jacobian.md, feedback mode): [PajakPajak]
+eq. (23) as printed scales the push by u, so the
 barrier torque saturates the limits, u drops to 0 and the push vanishes. Here the push keeps
 its own factor s in [0, 1] (push and damping -S dq of eq. (19) together), chosen first as the
 largest value whose efforts fit in the zone with u = 0 (the perturbation "respects the torque
@@ -15,17 +16,18 @@ budget"); then u is chosen by cases (a)-(d) with b = T0 + Tm (f0 + ext + s (fp -
 With s chosen this way u = 0 is always feasible unless the drift f0 = -E^-1 v1 alone leaves
 the zone: such samples are counted; a sample outside the true limits makes the run
 ``infeasible``. Caveat (measured on random scenes): with s < 1 near an obstacle the damping is
-cut too and the robot can coast into it; ``time`` mode (:mod:`ej_timescale`) avoids this.
+cut too and the robot can coast into it; ``time`` mode
+(:mod:`~mmplan.planners.extended_jacobian.time_scaling`) avoids this.
 
-Escape from local minima (000 cites it): when the error has not decreased by ``stall_progress``
-over ``stall_window`` while an obstacle acts (K > 0), a push along the obstacle boundary
-(perpendicular to dK/dq in the platform plane, on the goal's side on odd attempts and the
+Escape from local minima ([PajakPajak] s.3.2 cites it): when the error has not decreased by
+``stall_progress`` over ``stall_window`` while an obstacle acts (K > 0), a push along the obstacle
+boundary (perpendicular to dK/dq in the platform plane, on the goal's side on odd attempts and the
 other side on even ones, with a damped turn of the platform towards it) is applied for
-``escape_time``; the next verdict waits a full window.
-After ``max_escapes`` attempts, or without an obstacle acting, the run ends as stalled.
+``escape_time``; the next verdict waits a full window. After ``max_escapes`` attempts, or without an
+obstacle acting, the run ends as stalled.
 
 Conditioning: cond(E) is computed every ``cond_every`` steps; above ``switch_cond`` the
-caller may switch to a better-conditioned column partition (same optimum, eq. (11) of 000),
+caller may switch to a better-conditioned column partition (same optimum, [PajakPajak] eq. (11)),
 above ``cond_limit`` the run ends as diverged. Speed: stretches without decisions run as one
 compiled call of ``cond_every`` steps each (:mod:`mmplan.planners.extended_jacobian.chunks`).
 """
@@ -41,40 +43,12 @@ from numpy.typing import NDArray
 
 from mmplan.planners.extended_jacobian import chunks as ej_fastpath
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
+from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
-from mmplan.planners.extended_jacobian.torque import virtual_control as vc
 from mmplan.planners.extended_jacobian.torque.decision import decide
 from mmplan.trajectory import Status
 
 Array = NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class RolloutOptions:
-    """Numerical options of one rollout (filled from the planner settings)."""
-
-    dt: float
-    t_max: float
-    stop_error: float
-    gains: tuple[float, float, float]
-    torque_control: bool
-    zone: tuple[Array, Array]
-    limits: tuple[Array, Array]
-    eps_growth: vc.Growth = vc.Growth.CONSTANT
-    rho: float = 1.0
-    rho_min: float = 0.01
-    rho_max: float = 10.0
-    budget_perturbation: bool = True
-    stall_window: float = 1.5
-    stall_progress: float = 1e-3
-    escape: bool = True
-    escape_gain: float = 4.0
-    escape_time: float = 2.0
-    max_escapes: int = 5
-    cond_every: int = 50
-    cond_limit: float = 1e8
-    switch_cond: float = 1e5
-    max_switches: int = 4
 
 
 @dataclass

@@ -1,11 +1,11 @@
 """Samples of an extended-Jacobian rollout, stored as blocks (speed).
 
 The rollout records one sample per step (t, q, dq, ddq, tau, u, s and the task error); a
-compiled chunk (:mod:`ej_fastpath`) delivers many at once. Appending each chunk as one block
-and concatenating at the end costs one NumPy call per chunk and key, where a list of rows
-cost one Python object per sample and key (measured on youbot3r-obstacles-torque at
-dt = 20 ms: about 1.5 ms of a 15 ms plan). The task error is also kept in a flat array, as
-the stall verdict looks it up by sample index.
+compiled chunk (:mod:`~mmplan.planners.extended_jacobian.chunks`) delivers many at once. Appending
+each chunk as one block and concatenating at the end costs one NumPy call per chunk and key, where a
+list of rows cost one Python object per sample and key (measured on youbot3r-obstacles-torque at
+dt = 20 ms: about 1.5 ms of a 15 ms plan). The task error is also kept in a flat array, as the stall
+verdict looks it up by sample index.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 Array = NDArray[np.float64]
 
 KEYS = ("t", "q", "dq", "ddq", "tau", "u", "s", "err")
-#: Optional keys: [Tm dq, Tg] of the effort split at each sample (time scaling, ej_timescale).
+#: Optional keys: [Tm dq, Tg] of the effort split at each sample (time mode, time_scaling.py).
 EFFORT = "effort"
 
 

@@ -1,4 +1,4 @@
-"""Settings of the extended-Jacobian planner (papers 000, 003; defaults: SPEC section 3).
+"""Settings of the extended-Jacobian planner ([PajakPajak], [Pajak]; docs/extended_jacobian.md).
 
 The scenario file's ``planner:`` block is validated against :class:`ExtendedJacobianSettings`
 (unknown keys and non-finite numbers are errors naming the key).
@@ -15,7 +15,7 @@ from mmplan.problem import PlannerSettings
 
 
 class VirtualControlSettings(BaseModel):
-    """Virtual control (000 section 4, 003 section 4)."""
+    """Virtual control ([PajakPajak] s.4, [Pajak] s.4)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -23,10 +23,11 @@ class VirtualControlSettings(BaseModel):
         None, description="None: on when the robot has finite torque limits"
     )
     eps_tau: float = Field(0.1, ge=0, lt=1, allow_inf_nan=False,
-                           description="safety zone size, eq. (25) of 000")
+                           description="safety zone size, [PajakPajak] eq. (25)")
     growth: Literal["constant", "distance"] = Field(
         "constant",
-        description="constant: du/dt = rho (1 - u) (000); distance: (1 - u)/rho(t) (003)",
+        description="constant: du/dt = rho (1 - u) ([PajakPajak]); "
+        "distance: (1 - u)/rho(t) ([Pajak])",
     )
     rho: float = Field(1.0, gt=0, allow_inf_nan=False, description="rate of the constant law [1/s]")
     rho_min: float = Field(0.01, gt=0, allow_inf_nan=False,
@@ -35,11 +36,11 @@ class VirtualControlSettings(BaseModel):
                            description="rho(t) far from the goal (distance law) [s], >= rho_min")
     mode: Literal["auto", "feedback", "time"] = Field(
         "auto",
-        description="feedback: eq. (23) scales v2 (000/003); time: true time scaling of the whole "
-        "generator (ej_timescale); auto: time when the scene has obstacles, else feedback",
+        description="feedback: eq. (23) scales v2 ([PajakPajak], [Pajak]); time: true time "
+        "scaling of the whole generator; auto: time when the scene has obstacles, else feedback",
     )
     budget_perturbation: bool = Field(
-        True, description="scale the obstacle push to fit the torque budget (else eq. (24) as SPEC)"
+        True, description="scale the obstacle push to fit the torque budget (else s = 1, unscaled)"
     )
 
     @model_validator(mode="after")
@@ -52,7 +53,7 @@ class VirtualControlSettings(BaseModel):
 
 
 class ExtendedJacobianSettings(PlannerSettings):
-    """Settings of the extended-Jacobian planner (defaults: SPEC section 3).
+    """Settings of the extended-Jacobian planner (defaults: docs/extended_jacobian.md).
 
     Every number is finite; ``t_max / dt`` is bounded (see :class:`PlannerSettings`).
     """
@@ -62,7 +63,7 @@ class ExtendedJacobianSettings(PlannerSettings):
     dt: float = Field(0.01, gt=0, le=0.05, allow_inf_nan=False,
                       description="integration step [s] (RK4; 10 ms: path within 0.05 mm of 2 ms)")
     lambda_p: float = Field(1.75, gt=0, allow_inf_nan=False,
-                            description="Lambda_P, eq. (14) of 000")
+                            description="Lambda_P, [PajakPajak] eq. (14)")
     lambda_v: float = Field(2.78, gt=0, allow_inf_nan=False,
                             description="Lambda_V (>= 2 sqrt(Lambda_P): no overshoot)")
     lambda_ii: float = Field(1.0, gt=0, allow_inf_nan=False,
@@ -103,5 +104,5 @@ class ExtendedJacobianSettings(PlannerSettings):
     )
     vibration: bool = Field(
         True, description="the CLI and mmplan.analysis.analyse add the tip-vibration study "
-        "([Pajak] section 6) after planning (not part of planning or compute_time_s)",
+        "([Pajak] s.4, s.5.3) after planning (not part of planning or compute_time_s)",
     )

@@ -1,10 +1,10 @@
-r"""Fused generator step and whole-chunk rollout of the extended-Jacobian planner (speed, SPEC 3).
+r"""Fused generator step and whole-chunk rollout of the extended-Jacobian planner (speed).
 
 ``record_step(x, par) -> (x_next, rec)`` with x = [q; dq] and
 par = [p (6); u; s; ext (n); dt] does in one call what a rollout step does in two
 (:mod:`mmplan.planners.extended_jacobian.generator`): the sample at (q, dq),
 ``rec = [ddq; tau; err; f]`` with ddq = f0 + ext + u fv + s (fp - S dq), tau = T0 + Tm ddq
-(eqs. (16), (19), (22) of 000) and f = sum(f0) + sum(fv) + S (finite iff they are), and the
+([PajakPajak] eqs. (16), (19), (22)) and f = sum(f0) + sum(fv) + S (finite iff they are), and the
 Strang-split RK4 step to x_next, whose velocity is projected into ker A(q+) with the
 wheel-metric projector P (constraint stabilization: A dq = 0 to rounding at every sample,
 where the explicit step alone leaves a residual growing as dt^4 that Lambda_II only damps:
@@ -57,7 +57,7 @@ class StepParts:
     T0: ca.SX
     Tm: ca.SX
     err: ca.SX
-    solve: Callable[[ca.SX, ca.SX], ca.SX] = ca.solve  # E^-1 B (ej_structure.structured_solve)
+    solve: Callable[[ca.SX, ca.SX], ca.SX] = ca.solve  # E^-1 B (structure.structured_solve)
 
 
 def _rk4_strang(
@@ -73,7 +73,8 @@ def _rk4_strang(
     dt: Any,
 ) -> tuple[Any, Any]:
     """RK4 stages 2-4 from the damped velocity d1 and the first-stage acceleration k1a, then
-    the closing half of the Strang splitting (dq *= exp(-s S(q+) dt / 2); SPEC "Stiffness")
+    the closing half of the Strang splitting (dq *= exp(-s S(q+) dt / 2): the stiff damping
+    term exactly, see docs/extended_jacobian.md)
     and the projection of dq into ker A(q+) (module docstring)."""
     k2v = d1 + dt / 2 * k1a
     k2a = accel(q + dt / 2 * d1, k2v, u, s, ext, p)
@@ -151,7 +152,8 @@ def build_record_step_culled(
     obstacle_damping: ca.Function,
     projector: ca.Function,
 ) -> ca.Function:
-    """``record_step`` with the obstacle terms as culled calls (:mod:`ej_obstacles`).
+    """``record_step`` with the obstacle terms as culled calls
+    (:mod:`~mmplan.planners.extended_jacobian.obstacles`).
 
     The sample part and the stage accelerations are SX functions (common subexpressions
     merged) of the state and of the obstacle terms (S, fp) that ``obstacle_terms`` returns
@@ -221,8 +223,8 @@ def reference_step(
     """The reference step (q, dq, u, s, ext, p, dt) -> (q+, dq+) and its flat form.
 
     Strang splitting: dq *= exp(-s S dt / 2) before and after one RK4 step of
-    ddq = accel (SPEC "Stiffness"), then dq projected into ker A(q+); ``step_flat`` takes
-    x = [q; dq; u; s; ext; p; dt].
+    ddq = accel (the stiff damping term exactly, docs/extended_jacobian.md), then dq projected into
+    ker A(q+); ``step_flat`` takes x = [q; dq; u; s; ext; p; dt].
     """
     u, sp, dt = ca.SX.sym("u"), ca.SX.sym("s"), ca.SX.sym("dt")
     ext = ca.SX.sym("ext", n)

@@ -1,4 +1,4 @@
-r"""Cheaper equal forms of the extended-Jacobian criterion (speed; SPEC 3, 000 eqs. (5)-(16)).
+r"""Cheaper equal forms of the extended-Jacobian criterion (speed; [PajakPajak] eqs. (5)-(16)).
 
 Every later quantity of the generator (E = [de_I/dq; A], v1 with third derivatives of the
 kinematics, four evaluations per RK4 step) is derived by AD from mu and the transversality
@@ -55,7 +55,7 @@ def rigid_coordinates(robot: Robot) -> tuple[int, ...]:
 
 
 def reduced_manipulability(robot: Robot) -> ca.SX:
-    """mu(q) (eq. (5) of 000) with the rigid coordinates set to 0, in a cheaper equal form.
+    """mu(q) ([PajakPajak] eq. (5)) with the rigid coordinates set to 0, in a cheaper equal form.
 
     Equal to the robot's sqrt(det(J_mu J_mu^T)) up to rounding (:func:`rigid_coordinates`),
     with J_mu (k, n_a) taken at zero rigid coordinates and det(J_mu J_mu^T) = det(J_mu)^2
@@ -101,7 +101,7 @@ def _planar_pose(robot: Robot) -> bool:
 def structured_transversality(
     robot: Robot, R: Sequence[int], F: Sequence[int], Hq: ca.SX
 ) -> ca.SX | None:
-    r"""g of eq. (11) of 000 without the (m+h) solve, when R holds every platform coordinate.
+    r"""g of [PajakPajak] eq. (11) without the (m+h) solve, when R holds every platform coordinate.
 
     Then F is arm joints only and Jc_F = [J_F; 0]: the R rows of X = Jc_R^{-1} Jc_F solve
     A_p x_p = 0, J_p x_p + J_Ra x_a = J_F, i.e. x_p = N_p z with N_p the platform's null
@@ -138,7 +138,7 @@ def structured_transversality(
 
 
 def structured_solve(robot: Robot, E: ca.SX, B: ca.SX) -> ca.SX:
-    r"""X = E^{-1} B for E = [De; A] (n, n), A (h, n) the robot's Pfaffian (eq. (16) of 000).
+    r"""X = E^{-1} B for E = [De; A] (n, n), A (h, n) the robot's Pfaffian ([PajakPajak] eq. (16)).
 
     Every solution of A x = b_A is x = N w + Y b_A with N the null basis (n, n-h) of A and
     Y = A^T (A A^T)^{-1} a right inverse, so E x = b reduces to the (n-h) system

@@ -1,6 +1,6 @@
-r"""Torque limits by a true time scaling of the generator (SPEC section 3, "Known pitfalls").
+r"""Torque limits by a true time scaling of the generator (docs/extended_jacobian.md, time mode).
 
-Eq. (23) of 000 scales only the feedback v2 (and, as printed, the obstacle push) by u: with
+[PajakPajak] eq. (23) scales only the feedback v2 (and, as printed, the obstacle push) by u: with
 u = 0 the robot coasts on the drift -E^-1 v1, so near an obstacle the limits either cut the
 push (the robot coasts into the obstacle) or are broken. Time mode instead plans the
 unconstrained generator (u = 1) in its own time sigma, which fixes a collision-free
@@ -8,7 +8,7 @@ geometric path, and then traverses that path with the time rate w = dsigma/dt in
 chosen time-optimally so that every effort stays in the safety zone at every sample
 (:mod:`mmplan.time_scaling.topp`). Velocity terms scale with w^2, so slowing down also scales
 them (unlike u in eq. (23)). The ``u`` column is w: 0 at the start (gravity only, like
-u0 = 0 of 000), 1 where the limits do not bind.
+u0 = 0 of [PajakPajak]), 1 where the limits do not bind.
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
-from mmplan.planners.extended_jacobian.rollout import RolloutOptions, RolloutResult, rollout
+from mmplan.planners.extended_jacobian.options import RolloutOptions
+from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
 from mmplan.time_scaling.topp import time_optimal_scaling
 from mmplan.trajectory import Status
 

@@ -1,8 +1,8 @@
-r"""Manipulability distribution over candidate base positions and its layers (paper 004 s. 3).
+r"""Manipulability distribution over candidate base positions and its layers ([Nagatani] s.3).
 
 For one tool pose the base-6dof arm (6 dof) has one configuration per base position (x, y)
 once the IK branch and the base heading are fixed, so the manipulability
-:math:`w = \sqrt{\det(J J^T)}` (eq. (1) of 004) is a function of (x, y): the manipulability
+:math:`w = \sqrt{\det(J J^T)}` ([Nagatani] eq. (1)) is a function of (x, y): the manipulability
 distribution (section 3.2, figure 3). Thresholding it gives the manipulability area MA
 (section 3.3, figure 4); stacking the MAs of the poses along the task gives the LMA
 (section 3.4, figure 5). Everything here is vectorized over the whole grid: one batched IK
@@ -60,7 +60,7 @@ class ToolPoses:
 
     def in_front(self, base_xy: Array) -> BoolArray:
         """Bases (N, 2) strictly in front of the surface (the side its normal points to); the
-        base cannot stand inside the wall (004 section 5.5), (N,)."""
+        base cannot stand inside the wall ([Nagatani] s.5.5), (N,)."""
         n = -self.rotation[:2, 2]  # horizontal part of the outward normal
         if np.linalg.norm(n) < 1e-12:
             return np.ones(len(base_xy), dtype=bool)

@@ -1,4 +1,4 @@
-r"""Base paths through a Layer of Manipulability Areas (LMA; paper 004 section 4.1).
+r"""Base paths through a Layer of Manipulability Areas (LMA; [Nagatani] s.4.1).
 
 The LMA is a boolean voxel array ``masks`` (L, nx, ny): ``masks[k, i, j]`` says that the base
 at grid cell (i, j) keeps the manipulability of layer k's tool pose above the threshold.
@@ -99,7 +99,7 @@ def feasible_starts(masks: BoolArray, d: IntArray) -> BoolArray:
 
 
 def straight_candidates(masks: BoolArray) -> Iterator[StraightCandidates]:
-    """Feasible straight segments grouped by length, shortest group first (paper 004 s. 4.1).
+    """Feasible straight segments grouped by length, shortest group first ([Nagatani] s.4.1).
 
     A vertical segment (d = 0, no base motion) comes first when it exists. Lazy: the caller
     verifies each group exactly and stops at the first one that passes.

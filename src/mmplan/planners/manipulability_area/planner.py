@@ -1,10 +1,10 @@
-r"""Base path planning that keeps manipulability (paper 004, Nagatani et al.; SPEC section 7).
+r"""Base path planning that keeps manipulability ([Nagatani]; see docs/manipulability_area.md).
 
 Pipeline: tool poses along the segment (one per layer) -> manipulability distribution of
-every layer over the grid of base positions (eq. (1) of 004, analytic IK, vectorized;
+every layer over the grid of base positions ([Nagatani] eq. (1), analytic IK, vectorized;
 :mod:`mmplan.planners.manipulability_area.grid`) -> LMA with the threshold (default 0.5 x the
 largest w of
-the whole stack; 004 uses a fixed value, set ``threshold`` for that) -> shortest straight
+the whole stack; [Nagatani] uses a fixed value, set ``threshold`` for that) -> shortest straight
 base segment from the bottom to the top layer inside the LMA (section 4.1; round-robin over
 start/end cells, :mod:`mmplan.planners.manipulability_area.path`). Among the shortest grid-feasible
 segments
@@ -21,7 +21,7 @@ exact derivatives with respect to s), q = (x, y, theta_B, q1..q6) with the arm j
 exact IK at the base position of that row. Sub-goal corners are rounded by parabolic blends
 over half a layer interval when the exact w stays above the threshold there (else kept).
 ``problem.start`` is not used (the base start is chosen by the planner). Joint limits are
-ignored by default, as in 004 (its section 6 lists them as future work); the largest
+ignored by default, as in [Nagatani] (its s.6 lists them as future work); the largest
 violation is reported, ``respect_joint_limits`` removes such cells.
 """
 
@@ -45,10 +45,6 @@ from mmplan.trajectory import Solution
 class ManipulabilityArea(Planner[ManipulabilityAreaSettings, DrawSegment]):
     """[Nagatani]: straight (or sub-goal) base path inside the Layer of Manipulability Areas."""
 
-    settings_model = ManipulabilityAreaSettings
-    task_type = DrawSegment
-    task_hint = "a segment to draw (goal.segment {start, end, normal})"
-
     def _solve(
         self,
         problem: Problem,
@@ -61,7 +57,7 @@ class ManipulabilityArea(Planner[ManipulabilityAreaSettings, DrawSegment]):
             raise InputError(
                 "obstacles",
                 f"{len(problem.scene.obstacles)} given, but the manipulability-area method "
-                "has no obstacle model (paper 004); remove the obstacles or choose another "
+                "has no obstacle model ([Nagatani]); remove the obstacles or choose another "
                 "method",
             )
         if problem.robot.name != "base-6dof":

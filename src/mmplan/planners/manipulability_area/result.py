@@ -2,7 +2,7 @@
 
 Turns a base path (one base position per layer) into the whole-body trajectory (arm joints
 by exact IK at each layer), verifies it (exact w against the threshold, task error of the
-robot model's FK) and packs the data of 004's figures 3, 4, 5 and 8 as artifacts.
+robot model's FK) and packs the data of [Nagatani]'s figures 3, 4, 5 and 8 as artifacts.
 """
 
 from __future__ import annotations
@@ -38,7 +38,8 @@ def _rates(geom: PumaGeometry, poses: lma_grid.ToolPoses, q_arm: Array, v_base: 
            a_base: Array) -> tuple[Array, Array]:
     """Exact d/ds and d2/ds2 of q along the planned motion, (N, 9) each: base velocity and
     acceleration given, the tool along the segment at constant orientation; the arm rates
-    solve J dq = (v_tool - v_base, 0) in the arm frame (:func:`puma_ik.joint_rates`)."""
+    solve J dq = (v_tool - v_base, 0) in the arm frame
+    (:func:`mmplan.robot.library.base_6dof_ik.joint_rates`)."""
     N = len(poses.s)
     c, s = np.cos(poses.heading), np.sin(poses.heading)
     Rz_T = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -97,7 +98,8 @@ def assemble(
     """Trajectory through the sub-goals ``way_xy`` (K, 2) at layers ``keep`` (K,), sampled at
     the (dense) ``poses``, and the result: reached unless the exact manipulability or the task
     error says otherwise. Corners get parabolic blends over half a layer interval when the
-    exact w stays above the threshold with them (:func:`lma_path.blended_polyline`)."""
+    exact w stays above the threshold with them
+    (:func:`mmplan.planners.manipulability_area.path.blended_polyline`)."""
     geom = PumaGeometry.base_6dof()
     L = len(stack.poses.s)
     m = (len(poses.s) - 1) // (L - 1)

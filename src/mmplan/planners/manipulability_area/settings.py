@@ -19,7 +19,7 @@ MAX_STACK_CELLS = 30_000_000
 
 
 class ManipulabilityAreaSettings(PlannerSettings):
-    """Settings of the manipulability-area planner (SPEC section 7 defaults)."""
+    """Settings of the manipulability-area planner (defaults: docs/manipulability_area.md)."""
 
     method: Literal["manipulability-area"] = "manipulability-area"
     x_range: tuple[float, float] = Field(default=(0.01, 1.0), description="grid x [m]")

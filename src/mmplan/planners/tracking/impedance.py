@@ -1,9 +1,9 @@
-r"""Virtual impedance for an omnidirectional mobile manipulator (paper 001, section 3; SPEC 5).
+r"""Virtual impedance for an omnidirectional mobile manipulator ([AbdessemedDjebrani] s.3).
 
-Implements eqs. (33)-(42) of 001 (Abdessemed & Djebrani). The end-effector task
-:math:`\xi` (3) and the additional task :math:`\xi_{add}` = platform pose (x, y, theta) are
-stacked, :math:`\dot\xi_t = J_t u` with :math:`J_t = [J;\ J_{add}]` (eq. (36)), and the
-control is (eq. (37), u ordered as our q: platform first, then arm)
+Implements [AbdessemedDjebrani] eqs. (33)-(42); our readings are in docs/tracking.md.
+The end-effector task :math:`\xi` (3) and the additional task :math:`\xi_{add}` = platform pose
+(x, y, theta) are stacked, :math:`\dot\xi_t = J_t u` with :math:`J_t = [J;\ J_{add}]`
+(eq. (36)), and the control is (eq. (37), u ordered as our q: platform first, then arm)
 
 .. math:: u = J_t^{-1}\big(\dot\xi_d^* + W_t(\xi_d^* - \xi_t)\big).
 
@@ -21,9 +21,10 @@ tracking term itself), each along the outward normal of the obstacle with magnit
 
 d the horizontal distance from the platform centre to the obstacle's surface
 (:meth:`~mmplan.scene.obstacle.Obstacle.horizontal_distance_sym`; a point obstacle is a
-thin post). Reading of the platform task (SPEC 5): :math:`\xi_p^*(t)` = (X_d,x(t) + o_x,
-X_d,y(t) + o_y, heading) with the offset o and heading from the settings; the example's
-"(t, t, pi/4)" is read as (0.1 t, 0.1 t, pi/4). ``b_obs = 0`` switches the impedance off.
+thin post). Reading of the platform task (ours, docs/tracking.md):
+:math:`\xi_p^*(t)` = (X_d,x(t) + o_x, X_d,y(t) + o_y, heading) with the offset o and heading
+from the settings; the example's "(t, t, pi/4)" is read as (0.1 t, 0.1 t, pi/4). ``b_obs = 0``
+switches the impedance off.
 """
 
 from __future__ import annotations
@@ -44,14 +45,15 @@ Array = NDArray[np.float64]
 
 
 def obstacle_force_magnitude(d: ca.SX, d_min: float, d_max: float, b_obs: float) -> ca.SX:
-    """|F_obs|(d) of 001 section 3.3 (Borenstein & Koren), saturated below d_min, 0 beyond d_max."""
+    """|F_obs|(d) of [AbdessemedDjebrani] s.3.3 (Borenstein & Koren),
+    saturated below d_min, 0 beyond d_max."""
     a_obs = b_obs * (d_max - d_min) ** 2
     inner = a_obs - b_obs * (d - d_min) ** 2
     return ca.if_else(d >= d_max, 0, ca.if_else(d <= d_min, a_obs, inner))
 
 
 class VirtualImpedance:
-    """Compiled model of eqs. (36)-(42) of 001 for one robot, scene and settings.
+    """Compiled model of [AbdessemedDjebrani] eqs. (36)-(42) for one robot, scene and settings.
 
     Attributes:
         force: CasADi q -> (F_ext (2,), d_min): obstacle force on the platform and the
@@ -121,7 +123,7 @@ class VirtualImpedance:
         self.settings = settings
 
     def reference(self, task: TrackPath, t: float) -> Array:
-        """r(t) = [xi*(t); dxi*(t); xi_p*(t); dxi_p*(t)] (12,) (SPEC 5 reading of xi_p*)."""
+        """r(t) = [xi*(t); dxi*(t); xi_p*(t); dxi_p*(t)] (12,) (our reading of xi_p*)."""
         x, v = task.position(t), task.velocity(t)
         o = self.settings.platform_offset
         pose = np.array([x[0] + o[0], x[1] + o[1], self.settings.platform_heading])
@@ -141,8 +143,8 @@ def platform_distances(
 
     ``min_platform_obstacle_distance_m`` is the minimum over the run;
     ``platform_obstacle_distance_at_pass_m`` is the distance at the pass: the time at which
-    the undisturbed platform reference comes closest to an obstacle (SPEC 5's comparison
-    with and without impedance).
+    the undisturbed platform reference comes closest to an obstacle (the measure [RefRuns]
+    compares with and without impedance).
     """
     distance = model.force.map(len(q))
     actual = np.asarray(distance(q.T)[1], dtype=float).ravel()

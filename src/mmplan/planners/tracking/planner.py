@@ -21,16 +21,10 @@ from mmplan.problem import Array, Problem, Progress
 from mmplan.task import TrackPath
 from mmplan.trajectory import Solution
 
-_PATH_HINT = "a path to track (goal.path)"
-
 
 @register
 class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
     """Weighted-pseudoinverse path tracker with null-space potentials."""
-
-    settings_model = PseudoinverseSettings
-    task_type = TrackPath
-    task_hint = _PATH_HINT
 
     def _solve(
         self,
@@ -61,10 +55,6 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
 @register
 class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
     """End-effector + platform-pose tracking with virtual impedance."""
-
-    settings_model = ImpedanceSettings
-    task_type = TrackPath
-    task_hint = _PATH_HINT
 
     def _solve(
         self,

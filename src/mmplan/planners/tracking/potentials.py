@@ -1,4 +1,4 @@
-r"""Null-space potentials of the pseudoinverse tracker (paper 001, section 2.3).
+r"""Null-space potentials of the pseudoinverse tracker ([AbdessemedDjebrani] s.2.3).
 
 Both potentials are CasADi expressions in the generalized coordinates q, so that their
 gradients dV/dq come from automatic differentiation inside the compiled control step.
@@ -21,7 +21,7 @@ def joint_limit_potential(
     joint_min: NDArray[np.float64],
     joint_max: NDArray[np.float64],
 ) -> ca.SX:
-    r"""Joint-limit potential, eq. (30) of 001, on the arm coordinates.
+    r"""Joint-limit potential, [AbdessemedDjebrani] eq. (30), on the arm coordinates.
 
     .. math:: V_1(q) = \tfrac12 \sum_{i \in arm} \big(q_i - (\bar q_i + \underline q_i)/2\big)^2
 
@@ -39,7 +39,7 @@ def joint_limit_potential(
 
 
 def barrier_term(d: ca.SX, k1: float, d0: float, d_floor: float) -> ca.SX:
-    r"""One term of the obstacle potential, eq. (32) of 001, with a linear floor.
+    r"""One term of the obstacle potential, [AbdessemedDjebrani] eq. (32), with a linear floor.
 
     .. math::
         V_{2i}(d) = \tfrac12 k_1 (1/d - 1/d_0)^2 \ \ (d \le d_0), \qquad 0 \ \ (d > d_0).
@@ -100,7 +100,7 @@ def obstacle_potential(
     d0: float,
     d_floor: float,
 ) -> tuple[ca.SX, ca.SX]:
-    r"""Obstacle potential, eqs. (31)-(32) of 001, over the robot's collision spheres.
+    r"""Obstacle potential, [AbdessemedDjebrani] eqs. (31)-(32), over the robot's collision spheres.
 
     .. math:: V_2(q) = \sum_{i,j} V_{2}\big(d_{ij}(q)\big), \quad
               d_{ij} = \mathrm{dist}(p_i(q), O_j) - r_i

@@ -1,17 +1,17 @@
-r"""Path tracking by the weighted pseudoinverse (paper 001, section 2; SPEC section 4).
+r"""Path tracking by the weighted pseudoinverse ([AbdessemedDjebrani] s.2).
 
-Implements eqs. (18)-(32) of 001 (Abdessemed & Djebrani). The stacked kinematics
-:math:`J(q)\,\dot q = [0;\ \dot X]` with :math:`J = [A(q);\ J_m(q)]` ((h + 3) x n: the
-Pfaffian rows of the platform, then the end-effector Jacobian) are solved for the
-weighted minimum-norm velocity with drift correction and a null-space term (eq. (24)):
+Implements [AbdessemedDjebrani] eqs. (18)-(32); our readings are in docs/tracking.md.
+The stacked kinematics :math:`J(q)\,\dot q = [0;\ \dot X]` with :math:`J = [A(q);\ J_m(q)]`
+((h + 3) x n: the Pfaffian rows of the platform, then the end-effector Jacobian) are solved for
+the weighted minimum-norm velocity with drift correction and a null-space term (eq. (24)):
 
 .. math::
     \dot q = W^{-1} J^T (J W^{-1} J^T)^{-1} \big[\,0;\ \dot X_d + K (X_d - X)\big] + H z,
     \qquad H = W_0^{-1} - W^{-1} J^T (J W^{-1} J^T)^{-1} J W_0^{-1}
 
-(eq. (23) as SPEC fixes it, so that J H = 0), W = W_0^T W_0 = diag(w), w_i = b_i / b_max
-from the coordinate ranges b_i (platform x, y: 10 m by default, other platform coordinates
-2 pi; arm: the joint limits). Eq. (27) writes the same solution through the SVD
+(eq. (23) as we correct it, so that J H = 0; the printed form ends in J W_0), W = W_0^T W_0 =
+diag(w), w_i = b_i / b_max from the coordinate ranges b_i (platform x, y: 10 m by default, other
+platform coordinates 2 pi; arm: the joint limits). Eq. (27) writes the same solution through the SVD
 :math:`J W_0^{-1} = U \Sigma V^T`:
 :math:`\dot q = W_0^{-1} V \Sigma^+ U^T [\dots] + W_0^{-1}(I - V \Sigma^+ \Sigma V^T) z`;
 :meth:`WeightedPseudoinverse.svd_velocity` implements that form in NumPy (reference and
@@ -42,7 +42,7 @@ Array = NDArray[np.float64]
 
 
 def coordinate_weights(robot: Robot, platform_range: Sequence[float] | None) -> Array:
-    """w_i = b_i / b_max (eq. (18) of 001), b_i the range of coordinate i, (n,).
+    """w_i = b_i / b_max ([AbdessemedDjebrani] eq. (18)), b_i the range of coordinate i, (n,).
 
     Raises:
         InputError: wrong number of platform ranges, or an unbounded arm joint.
@@ -65,7 +65,7 @@ def coordinate_weights(robot: Robot, platform_range: Sequence[float] | None) -> 
 
 
 class WeightedPseudoinverse:
-    """Compiled model of eqs. (22)-(32) of 001 for one robot, scene and settings.
+    """Compiled model of [AbdessemedDjebrani] eqs. (22)-(32) for one robot, scene and settings.
 
     Attributes:
         w: Weights w_i (n,).
@@ -121,7 +121,8 @@ class WeightedPseudoinverse:
         self.step = compile_step("pinv_step", q, ca.vertcat(xd, dxd), dq, aux, robot.n, settings.dt)
 
     def svd_velocity(self, q: Array, xd: Array, dxd: Array) -> Array:
-        """dq by eq. (27) of 001 through the SVD of J W0^-1 (NumPy reference), (n,)."""
+        """dq by [AbdessemedDjebrani] eq. (27) through the SVD of J W0^-1
+        (NumPy reference), (n,)."""
         robot = self.robot
         J = np.asarray(self.task_jacobian(q), dtype=float)
         z = np.asarray(self.null_vector(q), dtype=float).ravel()

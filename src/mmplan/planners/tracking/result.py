@@ -1,4 +1,4 @@
-"""Results of the path-tracking rollouts (paper 001): trajectory, status, info, history.
+"""Results of the path-tracking rollouts ([AbdessemedDjebrani]): trajectory, status, info, history.
 
 The trajectory's ddq is the central difference of dq; the clearance is measured exactly
 against the scene's (original) obstacles at the robot's collision spheres.

@@ -1,4 +1,4 @@
-r"""Closed-loop rollout shared by the path-tracking planners of paper 001.
+r"""Closed-loop rollout shared by the path-tracking planners ([AbdessemedDjebrani]).
 
 A tracking planner compiles its whole control step into one CasADi ``Function``
 ``step(v) -> w`` on packed vectors (one call per step from Python):

@@ -15,7 +15,7 @@ from mmplan.problem import PlannerSettings
 
 
 class TrackingSettings(PlannerSettings):
-    """Settings shared by the path trackers of paper 001 (step and stop rules)."""
+    """Settings shared by the path trackers of [AbdessemedDjebrani] (step and stop rules)."""
 
     dt: float = Field(default=0.01, gt=0, allow_inf_nan=False, description="integration step [s]")
 
@@ -43,7 +43,8 @@ class TrackingSettings(PlannerSettings):
 
 
 class PseudoinverseSettings(TrackingSettings):
-    """Settings of the weighted-pseudoinverse tracker; defaults are SPEC section 4's example."""
+    """Settings of the weighted-pseudoinverse tracker; defaults are the paper's s.2 example
+    (docs/tracking.md)."""
 
     method: Literal["pseudoinverse"] = "pseudoinverse"
     gain: float = Field(
@@ -82,7 +83,8 @@ class PseudoinverseSettings(TrackingSettings):
 
 
 class ImpedanceSettings(TrackingSettings):
-    """Settings of the virtual-impedance tracker; defaults are SPEC section 5's example."""
+    """Settings of the virtual-impedance tracker; defaults are the paper's s.3 example
+    (docs/tracking.md)."""
 
     method: Literal["impedance"] = "impedance"
     dt: float = Field(default=0.001, gt=0, allow_inf_nan=False, description="integration step [s]")

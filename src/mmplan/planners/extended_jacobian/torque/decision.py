@@ -1,26 +1,22 @@
 """One sample's decision of the extended-Jacobian generator under torque limits (feedback mode).
 
 Shared by the planned rollout (:mod:`mmplan.planners.extended_jacobian.rollout`) and the online step
-(:mod:`mmplan.planners.extended_jacobian.online`): perturbation budget s, virtual control u (cases
-(a)-(d)
-and growth laws of :mod:`mmplan.planners.extended_jacobian.torque.virtual_control`, eqs. (24)-(31)
-of 000), then
-ddq = f0 + ext + u fv + s (fp - S dq) and tau = T0 + Tm ddq (eq. (22) of 000).
+(:mod:`mmplan.planners.extended_jacobian.online`): perturbation budget s, virtual control u
+(cases (a)-(d) and growth laws of :mod:`mmplan.planners.extended_jacobian.torque.virtual_control`,
+[PajakPajak] eqs. (24)-(31)), then ddq = f0 + ext + u fv + s (fp - S dq) and
+tau = T0 + Tm ddq ([PajakPajak] eq. (22)).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.planners.extended_jacobian.functions import Terms
+from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
-
-if TYPE_CHECKING:
-    from mmplan.planners.extended_jacobian.rollout import RolloutOptions
 
 Array = NDArray[np.float64]
 

@@ -4,9 +4,9 @@ Symbolic twin of :func:`mmplan.planners.extended_jacobian.torque.decision.decide
 step
 (:mod:`mmplan.planners.extended_jacobian.online`): ``online(x) -> [ddq; tau; u; s; ok]`` with
 x = [q; dq; u_prev; first; p], computing the generator terms and the choice of s and u by
-cases (a)-(d) (eqs. (24)-(30) of 000,
+cases (a)-(d) ([PajakPajak] eqs. (24)-(30),
 :mod:`mmplan.planners.extended_jacobian.torque.virtual_control`) and the growth
-law (eq. (31) of 000 / (21)-(22) of 003) in one call, so that a control loop pays one
+law ([PajakPajak] eq. (31), [Pajak] eqs. (21)-(22)) in one call, so that a control loop pays one
 function call a step. ``ok`` is 0 when a choice is infeasible (eq. (30) violated) or a
 control with a_i = 0 is outside the zone; the caller then runs the NumPy decision, which
 also picks the least-violating u. No escape push acts online (ext = 0).

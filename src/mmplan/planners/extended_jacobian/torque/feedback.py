@@ -1,6 +1,7 @@
 """Functions of the feedback-mode decision, built per problem and options (speed).
 
-:func:`online_function` is the one-call online step of :mod:`ej_decision_sym` (compiled to
+:func:`online_function` is the one-call online step of
+:mod:`~mmplan.planners.extended_jacobian.torque.decision_symbolic` (compiled to
 C and cached when the generator is); :func:`feedback_chunk` runs ``chunk_steps`` rollout
 steps with that decision in one call: ``(x0 = [q; dq; u_prev; first], par = [p; dt]) ->
 (X, REC)`` with X the states [q; dq; u; 0] after each step and REC the records
@@ -13,7 +14,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -21,11 +21,9 @@ from numpy.typing import NDArray
 
 from mmplan.compile import codegen as cg
 from mmplan.planners.extended_jacobian.generator import CFLAGS, GeneratorFunctions
+from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import decision_symbolic as ej_decision_sym
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
-
-if TYPE_CHECKING:
-    from mmplan.planners.extended_jacobian.rollout import RolloutOptions
 
 Array = NDArray[np.float64]
 

@@ -1,26 +1,28 @@
 r"""Virtual control: scaling the generator so that actuator efforts stay inside their limits.
 
-Implements section 4 of 000 (eqs. (23)-(31)) and section 4 of 003 (eqs. (17)-(22)):
-the efforts are affine in the virtual control, tau(u) = a u + b (eq. (24) of 000), with
-u in [0, 1]. The safety zone (eq. (25) of 000, (19) of 003) narrows the limits by
+Implements [PajakPajak] s.4 (eqs. (23)-(31)) and [Pajak] s.4 (eqs. (17)-(22)): the efforts
+are affine in the virtual control, tau(u) = a u + b ([PajakPajak] eq. (24)), with
+u in [0, 1]. The safety zone ([PajakPajak] eq. (25), [Pajak] eq. (19)) narrows the limits by
 0.5 eps_tau (tau_max - tau_min) on each side (an infinite limit stays infinite).
 
 When the nominal u (grown from the previous value by the growth law) drives some control
-outside the zone, each control i with a_i != 0 bounds u (cases (a)-(d) of 000):
+outside the zone, each control i with a_i != 0 bounds u ([PajakPajak] cases (a)-(d)):
 (a) a_i > 0 and upper limit: u <= (tau_max - b_i)/a_i; (b) a_i < 0 and lower limit:
 u <= (tau_min - b_i)/a_i; (c) a_i < 0 and upper limit: u >= (tau_max - b_i)/a_i;
 (d) a_i > 0 and lower limit: u >= (tau_min - b_i)/a_i. The upper bounds give
 u_max = min(...) (eq. (28)), the lower ones u_min = max(...) (eq. (29)); a solution exists iff
 u_min <= u_max (eq. (30)). We take every control into account (not only those that left the
 zone), so the chosen u cannot push another control out, and choose, among the feasible u,
-the one nearest the nominal value (SPEC: "the feasible u nearest the previous one").
+the one nearest the nominal value (our reading of "choose u in
+the intersection", see docs/extended_jacobian.md).
 When eq. (30) is violated the sample is infeasible; we then use the u in [0, 1] with the
 smallest largest violation and report it.
 
 Growth laws (continuous increase of u back to 1 after scaling):
-``constant`` du/dt = rho (1 - u) (eq. (31) of 000); ``distance`` du/dt = (1 - u)/rho(t)
-with rho(t) = rho_max - (rho_max - rho_min) exp(-|k(q) - p_f|) (eqs. (21)-(22) of 003, the
-literal reading SPEC asks for). Both are integrated exactly over a step with rho held.
+``constant`` du/dt = rho (1 - u) ([PajakPajak] eq. (31)); ``distance`` du/dt = (1 - u)/rho(t)
+with rho(t) = rho_max - (rho_max - rho_min) exp(-|k(q) - p_f|) ([Pajak] eqs. (21)-(22),
+read literally, see docs/extended_jacobian.md). Both are integrated exactly over a step with rho
+held.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ class Growth(StrEnum):
 
 
 def safety_zone(tau_min: Array, tau_max: Array, eps_tau: float) -> tuple[Array, Array]:
-    """Narrowed limits tau_eps,min/max (eq. (25) of 000); infinite limits stay infinite."""
+    """Narrowed limits tau_eps,min/max ([PajakPajak] eq. (25)); infinite limits stay infinite."""
     lo = np.asarray(tau_min, dtype=float).copy()
     hi = np.asarray(tau_max, dtype=float).copy()
     span = hi - lo
@@ -55,7 +57,8 @@ def safety_zone(tau_min: Array, tau_max: Array, eps_tau: float) -> tuple[Array, 
 
 
 def feasible_interval(a: Array, b: Array, lo: Array, hi: Array) -> tuple[float, float]:
-    """[u_min, u_max] with lo <= a u + b <= hi, intersected with [0, 1] (eqs. (27)-(30) of 000).
+    """[u_min, u_max] with lo <= a u + b <= hi, intersected with [0, 1]
+    ([PajakPajak] eqs. (27)-(30)).
 
     Controls with a_i = 0 do not bound u; if such a control is outside [lo, hi] no u helps and
     the interval is returned empty (u_min > u_max).
@@ -100,7 +103,7 @@ class Choice:
 
 
 def choose(u_nominal: float, a: Array, b: Array, lo: Array, hi: Array) -> Choice:
-    """The virtual control for one sample (section 4 of 000).
+    """The virtual control for one sample ([PajakPajak] s.4).
 
     Args:
         u_nominal: u grown from the previous value by the growth law.
@@ -135,9 +138,9 @@ def grow(
 ) -> float:
     """u after dt under the growth law, integrated exactly with the rate held.
 
-    ``constant``: du/dt = rho (1 - u) (eq. (31) of 000).
+    ``constant``: du/dt = rho (1 - u) ([PajakPajak] eq. (31)).
     ``distance``: du/dt = (1 - u)/rho(t), rho(t) = rho_max - (rho_max - rho_min) exp(-distance)
-    (eqs. (21)-(22) of 003), ``distance`` = |k(q) - p_f| [m].
+    ([Pajak] eqs. (21)-(22)), ``distance`` = |k(q) - p_f| [m].
     """
     if growth is Growth.CONSTANT:
         rate = rho

@@ -1,0 +1,84 @@
+"""Numerical options of one extended-Jacobian rollout, derived from the settings in one place.
+
+Used by the step decision, the compiled chunks, the feedback mode and the rollout loop; it
+sits below all of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
+from mmplan.planners.extended_jacobian.torque import virtual_control as vc
+from mmplan.robot.robot import Robot
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class RolloutOptions:
+    """Numerical options of one rollout, derived from the planner settings by
+    :meth:`from_settings` (the one place; no setting is restated here with a default).
+
+    ``cond_every``, ``switch_cond`` and ``max_switches`` are internal constants, not settings.
+    """
+
+    dt: float
+    t_max: float
+    stop_error: float
+    gains: tuple[float, float, float]
+    torque_control: bool
+    zone: tuple[Array, Array]
+    limits: tuple[Array, Array]
+    eps_growth: vc.Growth
+    rho: float
+    rho_min: float
+    rho_max: float
+    budget_perturbation: bool
+    stall_window: float
+    stall_progress: float
+    escape: bool
+    escape_gain: float
+    escape_time: float
+    max_escapes: int
+    cond_limit: float
+    cond_every: int = 50
+    switch_cond: float = 1e5
+    max_switches: int = 4
+
+    @classmethod
+    def from_settings(
+        cls, settings: ExtendedJacobianSettings, robot: Robot, tolerance: float
+    ) -> RolloutOptions:
+        """The options of a plan with ``settings`` for ``robot`` to a goal ``tolerance`` [m].
+
+        Torque control is on when the robot has torque limits, unless the settings say
+        otherwise (``virtual_control.enabled``); the run stops at half the tolerance.
+        """
+        vcs = settings.virtual_control
+        limits = robot.limits
+        torque_control = limits.has_torque_limits if vcs.enabled is None else vcs.enabled
+        return cls(
+            dt=settings.dt,
+            t_max=settings.t_max,
+            stop_error=0.5 * tolerance,
+            gains=(settings.lambda_p, settings.lambda_v, settings.lambda_ii),
+            torque_control=torque_control,
+            zone=vc.safety_zone(limits.torque_min, limits.torque_max, vcs.eps_tau),
+            limits=(limits.torque_min, limits.torque_max),
+            eps_growth=vc.Growth(vcs.growth),
+            rho=vcs.rho,
+            rho_min=vcs.rho_min,
+            rho_max=vcs.rho_max,
+            budget_perturbation=vcs.budget_perturbation,
+            stall_window=settings.stall_window,
+            stall_progress=settings.stall_progress,
+            escape=settings.escape,
+            escape_gain=settings.escape_gain,
+            escape_time=settings.escape_time,
+            max_escapes=settings.max_escapes,
+            cond_limit=settings.cond_limit,
+        )
