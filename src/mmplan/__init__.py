@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from mmplan._lazy import lazy_exports
+
 if TYPE_CHECKING:
     from mmplan.errors import InputError, MmplanError, ModelError, PlanningError, UnknownNameError
     from mmplan.io.plan_folder import read_plan, read_summary, read_trajectory_csv, write_plan
@@ -85,27 +87,24 @@ _LAZY: dict[str, str] = {
 }
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("mmplan")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "0+unknown"
+
+
+_get, __dir__ = lazy_exports(__name__, _LAZY)
+
+
 def __getattr__(name: str) -> Any:
     """Import a public name on first use (keeps ``import mmplan`` and ``mmplan --help`` light)."""
     if name == "__version__":
-        from importlib.metadata import PackageNotFoundError, version
-
-        try:
-            value: Any = version("mmplan")
-        except PackageNotFoundError:  # pragma: no cover - running from a source tree
-            value = "0+unknown"
-    elif name in _LAZY:
-        from importlib import import_module
-
-        value = getattr(import_module(_LAZY[name]), name)
-    else:
-        raise AttributeError(f"module 'mmplan' has no attribute {name!r}")
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+        globals()[name] = _version()
+        return globals()[name]
+    return _get(name)
 
 
 __all__ = [

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mmplan.errors import InputError, UnknownNameError
-from mmplan.scene import Box, Cylinder, Obstacle, Sphere, Superellipsoid, obstacle_from_dict
+from mmplan.scene import Box, Cylinder, Obstacle, Sphere, SuperellipsoidModel, obstacle_from_dict
 
 SPACING = 0.002  # brute-force surface sample spacing [m]
 
@@ -144,7 +144,7 @@ def test_enlarged_sphere_is_exact_and_others_monotone(rng: np.random.Generator) 
 
 def test_superellipsoid_models() -> None:
     s = Sphere((1.25, 0.70, 0.45), 0.15, influence=0.15).superellipsoid()
-    assert s == Superellipsoid((1.25, 0.70, 0.45), (0.15, 0.15, 0.15), (1.0, 1.0), 0.0, 0.15)
+    assert s == SuperellipsoidModel((1.25, 0.70, 0.45), (0.15, 0.15, 0.15), (1.0, 1.0), 0.0, 0.15)
     c = Cylinder((1.25, 2.5, 0.0), 0.4, 0.1, influence=0.35).superellipsoid()
     assert c.center == pytest.approx((1.25, 2.5, 0.05))
     assert c.semi_axes == pytest.approx((0.4, 0.4, 0.05))

@@ -1,15 +1,17 @@
 """Superellipsoid: implicit function, radial distance, symbolic forms and their gradients,
-exact distance against an independent brute-force reference, [PajakPajak]'s obstacles."""
+exact distance against an independent brute-force reference, [PajakPajak]'s obstacles; the
+scenario shape against its model."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import casadi as ca
 import numpy as np
 import pytest
 
-from mmplan.scene import Cylinder, Sphere, Superellipsoid
+from mmplan.scene import Cylinder, Obstacle, Sphere, Superellipsoid, SuperellipsoidModel
 
 # (center, semi_axes, exponents, yaw): [PajakPajak]'s cylinder model and other convex cases.
 CASES = [
@@ -21,6 +23,7 @@ CASES = [
     ((0.0, 0.0, 0.0), (0.3, 0.2, 0.25), (2.0, 2.0), 0.0),
 ]
 IDS = [f"e{c[2][0]}-{c[2][1]}" for c in CASES]
+Smooth = Superellipsoid | SuperellipsoidModel  # the shape or its model: the same math
 
 
 def _F(local: np.ndarray, a: np.ndarray, e1: float, e2: float) -> np.ndarray:
@@ -29,7 +32,7 @@ def _F(local: np.ndarray, a: np.ndarray, e1: float, e2: float) -> np.ndarray:
     return (x ** (2 / e2) + y ** (2 / e2)) ** (e2 / e1) + z ** (2 / e1)
 
 
-def _local(s: Superellipsoid, p: np.ndarray) -> np.ndarray:
+def _local(s: Smooth, p: np.ndarray) -> np.ndarray:
     c, sn = math.cos(s.yaw), math.sin(s.yaw)
     d = p - np.asarray(s.center)
     return np.stack(
@@ -37,14 +40,14 @@ def _local(s: Superellipsoid, p: np.ndarray) -> np.ndarray:
     )
 
 
-def _surface(s: Superellipsoid, directions: np.ndarray) -> np.ndarray:
+def _surface(s: Smooth, directions: np.ndarray) -> np.ndarray:
     """Local surface points on the rays (scaled space) of ``directions`` (..., 3)."""
     a = np.asarray(s.semi_axes)
     local = directions * a
     return local / _F(local, a, *s.exponents)[..., None] ** (s.exponents[0] / 2)
 
 
-def _reference(s: Superellipsoid, points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def _reference(s: Smooth, points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Unsigned distance by brute force: nearest of 1e5 surface samples, then 12 rounds of
     random local search around the best sample direction with a shrinking radius."""
     local = _local(s, points)
@@ -107,7 +110,7 @@ def test_implicit_and_radial_on_surface(case: tuple, rng: np.random.Generator) -
         np.testing.assert_allclose(s.radial_distance(world + t * unit), t, atol=1e-12)
 
 
-def _functions(s: Superellipsoid) -> ca.Function:
+def _functions(s: Smooth) -> ca.Function:
     p = ca.SX.sym("p", 3)
     f, c = s.implicit_sym(p), s.radial_distance_sym(p)
     return ca.Function("f", [p], [f, c, ca.jacobian(f, p), ca.jacobian(c, p)])
@@ -207,3 +210,21 @@ def test_approximate_seeds_change_nothing(case: tuple, rng: np.random.Generator)
     np.testing.assert_allclose(fast, exact, atol=1e-12, rtol=0)
     # Straight above the centre the nearest point is the top pole: closed form.
     np.testing.assert_allclose(fast[:2], [4.0 - s.semi_axes[2], 25.0 - s.semi_axes[2]], atol=1e-9)
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_shape_delegates_to_its_model_bit_for_bit(case: tuple, rng: np.random.Generator) -> None:
+    """The scenario shape is an obstacle with the model's fields; the model is no obstacle."""
+    s = Superellipsoid(*case, influence=0.2)
+    m = s.superellipsoid()
+    assert type(m) is SuperellipsoidModel and not isinstance(m, Obstacle)
+    assert dataclasses.astuple(m) == dataclasses.astuple(s)
+    assert s.enlarged(0.05).superellipsoid() == m.enlarged(0.05)
+    points = np.asarray(s.center) + rng.uniform(-1.5, 1.5, (200, 3)) * np.asarray(s.semi_axes)
+    for name in ("local", "implicit", "gauge", "radial_distance", "distance"):
+        np.testing.assert_array_equal(getattr(s, name)(points), getattr(m, name)(points))
+    p = ca.SX.sym("p", 3)
+    for name in ("local_sym", "implicit_sym", "radial_distance_sym", "signed_distance_sym"):
+        ours, theirs = (ca.Function("f", [p], [getattr(o, name)(p)]) for o in (s, m))
+        for q in points[:20]:
+            np.testing.assert_array_equal(np.asarray(ours(q)), np.asarray(theirs(q)))

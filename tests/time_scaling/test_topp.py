@@ -1,4 +1,4 @@
-"""Time-optimal scaling of the time mode (ej_topp) against a closed form (issue 7, random-6).
+"""Time-optimal scaling of the time mode (topp.py) against a closed form (issue 7, random-6).
 
 Path from rest with a constant generator acceleration: q(sigma) = -a sigma^2 / 2, so
 q' = -a sigma, q'' = -a, and one actuator with tau = m ddq = m (x q'' + v q' / 2). Under

@@ -1,8 +1,9 @@
 """Studies of a finished plan that the CLI and the report run after planning (not planners).
 
 :func:`analyse` adds the studies a problem's settings ask for to a plan result; today the
-tip-vibration study of :mod:`mmplan.analysis.vibration` ([Pajak] section 6), requested by a
-method's ``vibration`` setting (the extended-Jacobian planner's, on by default).
+tip-vibration study of :mod:`mmplan.analysis.vibration` (the claim of [Pajak] s.4, tested by
+the experiment of s.5.3, Figs. 8-9), requested by a method's ``vibration`` setting (the
+extended-Jacobian planner's, on by default).
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ def surface_along_rays(model: Any, directions: Array) -> Array:
     """Surface points of ``model`` along rays from its centre (R, 3).
 
     Args:
-        model: Superellipsoid with ``center`` and ``implicit(points (P, 3)) -> (P,)``.
+        model: SuperellipsoidModel with ``center`` and ``implicit(points (P, 3)) -> (P,)``.
         directions: Ray directions (R, 3), not necessarily unit.
 
     Returns:

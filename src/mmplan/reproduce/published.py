@@ -173,14 +173,14 @@ REFERENCES: tuple[Reference, ...] = (
                         "not slow the plan down"),
     # ---- [Pajak], section 5 ----------------------------------------------------------------
     Reference("[Pajak] s.5", f"{T_PAPER}, plain generator", 7.13, "s", _v(Y4, "duration_1mm_s"),
-              source="[Pajak] s.5.4 text: 'equal to 7.13 [s] and 7.34 [s], respectively'"
+              source="[Pajak] s.5.3 text: 'equal to 7.13 [s] and 7.34 [s], respectively'"
                      + T_NOTE),
     Reference("[Pajak] s.5", f"{T_PAPER}, extended generator (wheel torque limits)", 7.34, "s",
               _v(Y4S, "duration_1mm_s"),
-              source="[Pajak] s.5.4 text (second of the two times)" + T_NOTE),
+              source="[Pajak] s.5.3 text (second of the two times)" + T_NOTE),
     Reference("[Pajak] s.5", "time added by the torque limits", 7.34 / 7.13 - 1, "%",
               Measure((Y4, Y4S), ("duration_1mm_s",), Op.INCREASE), tol=0.05, relative=False,
-              source="[Pajak] s.5.4: 7.34 s / 7.13 s"),
+              source="[Pajak] s.5.3: 7.34 s / 7.13 s"),
     # ---- [JaniakTchon], section III --------------------------------------------------------
     Reference("[JaniakTchon] s.III-A", "max |psi| without bounds", math.pi / 2, "rad",
               _v(CAR, *PSI), Check.AT_LEAST, tol=0.0, paper_text="> pi/2 = 1.571 rad",

@@ -13,19 +13,17 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mmplan.scene.obstacle import (
+from mmplan.scene.fields import (
     Array,
-    Obstacle,
     Vec3,
     as_float,
-    excess_distance_sym,
     influence_value,
     positive,
-    register_shape,
     to_local,
     vector,
 )
-from mmplan.scene.superellipsoid import Superellipsoid
+from mmplan.scene.obstacle import Obstacle, excess_distance_sym, register_shape
+from mmplan.scene.smooth_model import SuperellipsoidModel
 
 BOX_EXPONENTS = (0.1, 0.1)  # planner model exponents (e1, e2)
 
@@ -87,8 +85,8 @@ class Box(Obstacle):
         size = tuple(s + 2 * eps for s in self.size)
         return Box(self.center, size, self.yaw, self.influence)  # type: ignore[arg-type]
 
-    def superellipsoid(self) -> Superellipsoid:
+    def superellipsoid(self) -> SuperellipsoidModel:
         """Model: semi-axes = half extents, exponents (0.1, 0.1), same centre and yaw."""
-        return Superellipsoid(
+        return SuperellipsoidModel(
             self.center, self.half_extents, BOX_EXPONENTS, self.yaw, self.influence
         )

@@ -13,20 +13,17 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mmplan.scene.obstacle import (
+from mmplan.scene.fields import (
     Array,
-    Obstacle,
     Vec3,
     as_float,
-    excess_distance_sym,
     influence_value,
-    norm_sym,
     points_array,
     positive,
-    register_shape,
     vector,
 )
-from mmplan.scene.superellipsoid import Superellipsoid
+from mmplan.scene.obstacle import Obstacle, excess_distance_sym, norm_sym, register_shape
+from mmplan.scene.smooth_model import SuperellipsoidModel
 
 CYLINDER_EXPONENTS = (0.1, 1.0)  # (vertical e1, horizontal e2) of the planner model
 
@@ -90,9 +87,9 @@ class Cylinder(Obstacle):
         x, y, z = self.base_center
         return Cylinder((x, y, z - eps), self.radius + eps, self.height + 2 * eps, self.influence)
 
-    def superellipsoid(self) -> Superellipsoid:
+    def superellipsoid(self) -> SuperellipsoidModel:
         """Model: semi-axes (r, r, h/2) about the centre, exponents (0.1, 1.0)."""
         r = self.radius
-        return Superellipsoid(
+        return SuperellipsoidModel(
             self.center, (r, r, 0.5 * self.height), CYLINDER_EXPONENTS, 0.0, self.influence
         )

@@ -1,4 +1,4 @@
-"""Obstacle base class, input validation helpers and the registry of shapes by name.
+"""Obstacle base class, the registry of shapes by name and symbolic distance helpers.
 
 Every shape (one class per file) is a frozen dataclass whose field names are the keys of its
 scenario YAML form (docs/conventions.md), so ``to_dict`` and :func:`obstacle_from_dict` are generic.
@@ -6,32 +6,30 @@ Each shape offers two views of the same object (docs/conventions.md):
 
 * :meth:`Obstacle.distance`: the exact signed Euclidean distance (negative inside) used by the
   independent checker, always against the original shape;
-* :meth:`Obstacle.superellipsoid`: a smooth Barr superellipsoid model used by planners.
+* :meth:`Obstacle.superellipsoid`: a smooth Barr superellipsoid model used by planners, a
+  :class:`~mmplan.scene.smooth_model.SuperellipsoidModel` (a lower module: the model knows no
+  obstacle class).
 
 Planners that need the distance inside a compiled CasADi function (the tracking planners)
 use :meth:`Obstacle.signed_distance_sym` (and :meth:`Obstacle.horizontal_distance_sym`): each
-shape builds its own expression, so a new shape only touches its own file.
+shape builds its own expression, so a new shape only touches its own file. Field validation
+(``as_float``, ``vector``, ...) and the local frame (``to_local``) are in
+:mod:`mmplan.scene.fields`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar, TypeVar
 
 import casadi as ca
-import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from mmplan.errors import InputError, UnknownNameError
-
-if TYPE_CHECKING:
-    from mmplan.scene.superellipsoid import Superellipsoid
-
-Array = NDArray[np.float64]
-Vec3 = tuple[float, float, float]
+from mmplan.scene.fields import Array
+from mmplan.scene.smooth_model import SuperellipsoidModel
 
 _REGISTRY: dict[str, type[Obstacle]] = {}
 
@@ -106,7 +104,7 @@ class Obstacle(ABC):
         """The same kind of obstacle grown by ``eps`` [m] (half extents + eps)."""
 
     @abstractmethod
-    def superellipsoid(self) -> Superellipsoid:
+    def superellipsoid(self) -> SuperellipsoidModel:
         """Smooth superellipsoid model of this obstacle for planners."""
 
     @abstractmethod
@@ -140,71 +138,6 @@ class Obstacle(ABC):
                 continue
             out[f.name] = list(value) if isinstance(value, tuple) else value
         return out
-
-
-# --------------------------------------------------------------------------- validation
-
-
-def _fail(field: str, problem: str) -> InputError:
-    return InputError(field, problem)
-
-
-def as_float(value: Any, field: str) -> float:
-    """A finite float, else :class:`InputError` naming ``field``."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
-        raise _fail(field, f"expected a number, got {value!r}")
-    out = float(value)
-    if not math.isfinite(out):
-        raise _fail(field, f"expected a finite number, got {value!r}")
-    return out
-
-
-def positive(value: Any, field: str) -> float:
-    """A finite float > 0, else :class:`InputError` naming ``field``."""
-    out = as_float(value, field)
-    if out <= 0.0:
-        raise _fail(field, f"expected a positive length in metres, got {value!r}")
-    return out
-
-
-def vector(
-    value: Any, field: str, size: int = 3, check: Callable[[Any, str], float] = as_float
-) -> tuple[float, ...]:
-    """A tuple of ``size`` floats each passing ``check`` (field ``name[i]`` on error)."""
-    if isinstance(value, str | bytes) or not isinstance(value, Sequence | np.ndarray):
-        raise _fail(field, f"expected a list of {size} numbers, got {value!r}")
-    items = list(value)
-    if len(items) != size:
-        raise _fail(field, f"expected a list of {size} numbers, got {len(items)}: {value!r}")
-    return tuple(check(v, f"{field}[{i}]") for i, v in enumerate(items))
-
-
-def influence_value(value: Any) -> float | None:
-    """Validate the optional ``influence`` field (None or a positive length)."""
-    return None if value is None else positive(value, "influence")
-
-
-def points_array(points: ArrayLike) -> Array:
-    """Points as a float array (P, 3); a single point (3,) becomes (1, 3)."""
-    arr = np.asarray(points, dtype=float)
-    if arr.ndim == 1:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise InputError("points", f"expected an array of shape (P, 3), got {arr.shape}")
-    return arr
-
-
-def rot_z(yaw: float) -> Array:
-    """Rotation matrix about z by ``yaw`` [rad] (3, 3)."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def to_local(points: ArrayLike, center: Sequence[float], yaw: float) -> Array:
-    """Coordinates p' = R_z(yaw)^T (p - c) of world points (P, 3)."""
-    p = points_array(points) - np.asarray(center, dtype=float)
-    # Row-vector form of R^T (p - c): (p - c) @ R.
-    return np.asarray(p @ rot_z(yaw), dtype=float)
 
 
 # --------------------------------------------------------------------- symbolic helpers

@@ -10,7 +10,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mmplan.errors import InputError
-from mmplan.scene.obstacle import Array, Obstacle, obstacle_from_dict, points_array
+from mmplan.scene.fields import Array, points_array
+from mmplan.scene.obstacle import Obstacle, obstacle_from_dict
 
 
 @dataclass(frozen=True)

@@ -9,19 +9,17 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mmplan.scene.obstacle import (
+from mmplan.scene.fields import (
     Array,
-    Obstacle,
     Vec3,
     as_float,
     influence_value,
-    norm_sym,
     points_array,
     positive,
-    register_shape,
     vector,
 )
-from mmplan.scene.superellipsoid import Superellipsoid
+from mmplan.scene.obstacle import Obstacle, norm_sym, register_shape
+from mmplan.scene.smooth_model import SuperellipsoidModel
 
 
 @register_shape
@@ -60,7 +58,7 @@ class Sphere(Obstacle):
         """Radius grown by ``eps`` [m]."""
         return Sphere(self.center, self.radius + as_float(eps, "eps"), self.influence)
 
-    def superellipsoid(self) -> Superellipsoid:
+    def superellipsoid(self) -> SuperellipsoidModel:
         """Exact model: semi-axes (r, r, r), exponents (1, 1)."""
         r = self.radius
-        return Superellipsoid(self.center, (r, r, r), (1.0, 1.0), 0.0, self.influence)
+        return SuperellipsoidModel(self.center, (r, r, r), (1.0, 1.0), 0.0, self.influence)

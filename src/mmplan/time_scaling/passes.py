@@ -1,9 +1,9 @@
-r"""Compiled backward and forward passes of the time-optimal scaling (:mod:`.ej_topp`).
+r"""Compiled backward and forward passes of the time-optimal scaling (:mod:`.topp`).
 
 Interval i of the path carries 2 n_act "slabs" lo <= a x + b v <= hi on (x_i, v_i): the
 effort of every actuator at sample i (a = alpha_i, b = beta_i / 2) and at sample i + 1
-(a = alpha_{i+1}, b = alpha_{i+1} Delta_i + beta_{i+1} / 2), lo/hi = zone - tau_g (eq. (22),
-(25) of 000; first-order interpolation of TOPP-RA, Pham & Pham 2018, sec. VI). Slabs are
+(a = alpha_{i+1}, b = alpha_{i+1} Delta_i + beta_{i+1} / 2), lo/hi = zone - tau_g ([PajakPajak]
+eqs. (22), (25); first-order interpolation of TOPP-RA, Pham & Pham 2018, sec. VI). Slabs are
 oriented to b >= 0 (negating a row is exact). An infinite limit is the finite bound
 +-:data:`BIG`, so one build serves every pattern of finite limits.
 

@@ -1,9 +1,9 @@
-r"""Time-optimal scaling of a planned generator path under torque limits (time mode, SPEC 3).
+r"""Time-optimal scaling of a generator path under torque limits (docs/extended_jacobian.md).
 
 The extended-Jacobian generator without torque limits gives a collision-free path
 q(sigma) with q' = dq/dsigma and q'' = F (sigma is the generator's own time). Traversing it
 with the time rate w = dsigma/dt in [0, 1] gives dq/dt = w q', ddq = w^2 F + dw/dt q' and,
-with x = w^2 and v = dx/dsigma (so dw/dt = v/2), efforts affine in (x, v) (eq. (22) of 000;
+with x = w^2 and v = dx/dsigma (so dw/dt = v/2), efforts affine in (x, v) ([PajakPajak] eq. (22);
 c(q, w q') = w^2 (c(q, q') - g) + g without friction):
 
 .. math::
@@ -11,7 +11,7 @@ c(q, w q') = w^2 (c(q, q') - g) + g without friction):
     \tau_i = \alpha_i x_i + \tfrac12 \beta_i v_i + \tau_{g,i},\quad
     \alpha_i = \tau_{F,i} - \tau_{g,i},\ \beta_i = T_{m,i} q'_i,\quad x_{i+1} = x_i + v_i \Delta_i.
 
-Every sample must keep tau in the safety zone (eq. (25) of 000), and on each interval
+Every sample must keep tau in the safety zone ([PajakPajak] eq. (25)), and on each interval
 [sigma_i, sigma_i+1] the constant v_i must keep it there at both ends: at sigma_i with x_i and
 at sigma_i+1 with x_i + v_i Delta_i (the "first-order interpolation" discretization of
 TOPP-RA, Pham & Pham 2018, sec. VI). Checking only the start of each interval (collocation)
@@ -25,11 +25,11 @@ backward pass computes the controllable sets [K_lo, K_hi] of x at each sample (t
 LPs per sample), a forward pass from rest (x_0 = 0, the analogue of u0 = 0) takes the
 largest admissible v and keeps x_{i+1} in K_{i+1} (roundoff can leave x_i a hair outside
 K_i, where no v is admissible; unclipped, the excess grew geometrically). If x_0 = 0 is not
-controllable the limits are infeasible on this path (eq. (30) of 000 generalized) and the
+controllable the limits are infeasible on this path ([PajakPajak] eq. (30) generalized) and the
 first sample where a controllable set is empty is reported. The geometric path and hence the
 clearance are those of the unconstrained plan.
 
-:func:`time_optimal_scaling` runs both passes compiled (:mod:`.ej_topp_passes`, about
+:func:`time_optimal_scaling` runs both passes compiled (:mod:`.passes`, about
 0.7 us a sample); :func:`reference_scaling` is the plain NumPy version it reproduces.
 """
 
@@ -152,7 +152,7 @@ def reference_scaling(
         v[i] = max(v_hi, v_lo) if v_hi < v_lo else v_hi
         # Roundoff can leave x_i a hair outside K_i, where no v is admissible (v_hi < v_lo);
         # without the clip into K_{i+1} the excess grew ~1.3x a step (8e-3 N m over the
-        # limit after 67 steps on a seeded random problem, tests/test_extended_jacobian_topp).
+        # limit after 67 steps on a seeded random problem, tests/time_scaling/test_topp.py).
         x_next = np.clip(x[i] + v[i] * delta[i], K_lo[i + 1], K_hi[i + 1])
         x[i + 1] = float(np.clip(x_next, 0.0, x_max))
         v[i] = (x[i + 1] - x[i]) / delta[i]

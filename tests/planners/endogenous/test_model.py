@@ -1,4 +1,4 @@
-"""Numerics of the endogenous planner's model (paper 002): plus function, controls, end point
+"""Numerics of the endogenous planner's model ([JaniakTchon]): plus function, controls, end point
 map and its Jacobian (eq. (7)) against independent references (finite differences,
 scipy's solve_ivp on the paper's car equations (16), closed forms)."""
 
@@ -35,7 +35,7 @@ def model(robot):  # type: ignore[no-untyped-def]
 
 
 def softplus_ref(x: np.ndarray | float) -> np.ndarray:
-    """p(x, a) = x + ln(1 + exp(-a x)) / a (eq. (2) of 002), overflow-free via logaddexp."""
+    """p(x, a) = x + ln(1 + exp(-a x)) / a ([JaniakTchon] eq. (2)), overflow-free via logaddexp."""
     return np.logaddexp(0.0, A_SHARP * np.asarray(x)) / A_SHARP
 
 
@@ -54,7 +54,7 @@ def controls_ref(t: float, lam: np.ndarray, T: float) -> np.ndarray:
 
 
 def reference_error(qp0, lam, x, yd, T, bounds):  # type: ignore[no-untyped-def]
-    """e_r of eq. (19) of 002 from solve_ivp of eq. (16) plus the extra states of eq. (18)."""
+    """e_r of eq. (19) from solve_ivp of eq. (16) plus the extra states of eq. (18)."""
 
     def rhs(t: float, s: np.ndarray) -> np.ndarray:
         _, _, phi, psi = s[:4]
@@ -85,7 +85,7 @@ def reference_error(qp0, lam, x, yd, T, bounds):  # type: ignore[no-untyped-def]
     reach = L2 + L3 * np.cos(x[2])
     k = np.array(
         [xe + reach * np.cos(phi + x[0]), ye + reach * np.sin(phi + x[0]), x[1] + L3 * np.sin(x[2])]
-    )  # eq. (16) of 002
+    )  # [JaniakTchon] eq. (16)
     return np.concatenate([k - yd, sol.y[4:, -1]]), sol.y[:4, -1]
 
 
@@ -154,7 +154,7 @@ def test_jacobian_matches_finite_differences(model, rng) -> None:  # type: ignor
             step[j] = h
             fd[:, j] = (output(par + step) - output(par - step)) / (2 * h)
         np.testing.assert_allclose(J, fd, atol=1e-6 * max(1.0, np.abs(J).max()))
-        # The bound rows see the regularizer r = (q - c)^2: nonzero (eqs. (10)-(13) of 002).
+        # The bound rows see the regularizer r = (q - c)^2: nonzero ([JaniakTchon] eqs. (10)-(13)).
         assert np.abs(J[3:]).max(axis=1).min() > 1e-3
 
 

@@ -1,4 +1,4 @@
-"""Endogenous configuration space planner (paper 002): the paper's three examples, a seeded
+"""Endogenous configuration space planner ([JaniakTchon]): the paper's three examples, a seeded
 set of random targets and bounds, bad input, and the built-in scenario files."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from mmplan.scene.scene import Scene
 from mmplan.task import ReachPoint
 from mmplan.trajectory import PlanResult, Status
 
-START = np.array([20.0, 0.0, np.pi / 2, 0.0, 0.0, 1.0, np.pi / 2])  # SPEC section 6: (q0, x0)
+START = np.array([20.0, 0.0, np.pi / 2, 0.0, 0.0, 1.0, np.pi / 2])  # (q0, x0), [JaniakTchon] s.III
 LAMBDA0 = (-1.0, 0.5, -0.5, -0.2, 0.1, 0.1, 0.01, 0.01)
 GOAL = (0.0, 0.0, 2.0)
 PSI = 3
@@ -78,7 +78,7 @@ def test_unbounded_plan_turns_the_wheels_beyond_pi_over_2(robot: Robot) -> None:
     assert result.status is Status.REACHED
     psi_max = result.info["max_abs.psi"]
     assert psi_max > np.pi / 2  # the paper's figure 2: cusp turn
-    assert psi_max == pytest.approx(6.57, abs=0.02)  # SPEC section 6 reference
+    assert psi_max == pytest.approx(6.57, abs=0.02)  # [RefRuns]
     errors = result.history["error_norm"]
     assert errors[0] > 10 and errors[-1] < 1e-4
 

@@ -1,8 +1,8 @@
 """Speed pieces of the extended-Jacobian planner against their plain references.
 
-Exact obstacle culling (ej_obstacles) against the full sum, the fused/culled record step and
-the flat chunk (ej_step) against the SX reference step, power_sym against x**a, and the
-generator cache (ej_cache). Everything is evaluated by the CasADi VM (no C compiling).
+Exact obstacle culling (obstacles.py) against the full sum, the fused/culled record step and
+the flat chunk (step.py) against the SX reference step, power_sym against x**a, and the
+generator cache (cache.py). Everything is evaluated by the CasADi VM (no C compiling).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from mmplan.planners.extended_jacobian.step import CHUNK, build_chunk_flat
 from mmplan.robot.library import youbot_3r
 from mmplan.robot.robot import Robot
 from mmplan.scenario.loader import load_scenario
-from mmplan.scene.superellipsoid import Superellipsoid, power_sym
+from mmplan.scene.smooth_model import SuperellipsoidModel, power_sym
 
 Array = np.ndarray
 VARRHO = 1.7
@@ -36,7 +36,7 @@ DELTA = 0.3
 PARAMS = np.array([3.5, 4.0, 0.16, 1.75, 2.78, 1.0])  # p_f, Lambda_P, Lambda_V, Lambda_II
 Setup = tuple[Robot, list[ObstacleTerm], Array]
 Generator = tuple[GeneratorFunctions, dict[str, ca.Function]]
-YAWED = Superellipsoid((0.9, 1.7, 0.3), (0.35, 0.15, 0.3), (0.5, 0.3), 0.6)
+YAWED = SuperellipsoidModel((0.9, 1.7, 0.3), (0.35, 0.15, 0.3), (0.5, 0.3), 0.6)
 
 
 @pytest.fixture(scope="module")
@@ -67,14 +67,14 @@ def _configs(
     return out
 
 
-def _model(ob: ObstacleTerm) -> Superellipsoid:
-    """The obstacle's model (a scene superellipsoid here)."""
-    assert isinstance(ob.model, Superellipsoid)
+def _model(ob: ObstacleTerm) -> SuperellipsoidModel:
+    """The obstacle's model (a scene superellipsoid model here)."""
+    assert isinstance(ob.model, SuperellipsoidModel)
     return ob.model
 
 
 def _projector(robot: Robot) -> ca.SX:
-    """Wheel-metric projector into ker A (as ej_dynamics builds it)."""
+    """Wheel-metric projector into ker A (as generator.py builds it)."""
     A = robot.symbols.pfaffian
     Winv = ca.diag(ca.DM(wheel_metric_inverse(robot)))
     return ca.SX.eye(robot.n) - Winv @ A.T @ ca.solve(A @ Winv @ A.T, A)
@@ -105,7 +105,7 @@ def test_box_gap_is_a_lower_bound_of_the_radial_distance(
     setup: Setup, rng: np.random.Generator
 ) -> None:
     models = [_model(ob) for ob in setup[1]]
-    models.append(Superellipsoid((0.2, -0.1, 0.5), (0.3, 0.5, 0.2), (2.0, 2.0), -1.1))
+    models.append(SuperellipsoidModel((0.2, -0.1, 0.5), (0.3, 0.5, 0.2), (2.0, 2.0), -1.1))
     p = ca.SX.sym("p", 3)
     for model in models:
         gap = ca.Function("gap", [p], [ej_obstacles.box_gap_sym(model, p)])
@@ -342,7 +342,7 @@ def test_generator_cache(setup: Setup, fresh_cache: None) -> None:
 def test_culled_record_step_near_the_goal_equals_the_reference(
     setup: Setup, generator: Generator
 ) -> None:
-    """Within 0.3 m of the goal the push loses its end-effector part (ej_nearpush): the culled
+    """Within 0.3 m of the goal the push loses its end-effector part (near_goal.py): the culled
     step computes that projection behind a conditional; same values as the SX reference."""
     from mmplan.planners.extended_jacobian import near_goal as ej_nearpush
 

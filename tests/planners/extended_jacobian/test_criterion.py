@@ -1,9 +1,9 @@
 """Symbolic core of the extended-Jacobian planner: every derivative against finite differences.
 
-Covers H, g (eq. (11) of 000), de_I/dq, v1 (third derivatives of k), the generator's error
+Covers H, g ([PajakPajak] eq. (11)), de_I/dq, v1 (third derivatives of k), the generator's error
 dynamics (eq. (16)), the wheel-metric projector, the obstacle push and the torque split
 tau = T0 + Tm ddq, and that g = 0 at a constrained optimum does not depend on the partition;
-the cheaper structured forms (:mod:`ej_structure`) against the straightforward reference build.
+the cheaper structured forms (structure.py) against the straightforward reference build.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def _rand_state(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     return q, rng.normal(size=8)
 
 
-def test_partition_rule_matches_spec(robot: Robot) -> None:
+def test_partition_rule_matches_the_documented_choice(robot: Robot) -> None:
     part = choose_partition(robot, Q0_3R)
     assert part.names(robot) == (("x", "y", "theta", "phi1", "phi2", "q2"), ("q1", "q3"))
 
@@ -174,7 +174,7 @@ def test_projector_push_damping_and_torque_split(robot: Robot, crit) -> None:  #
     p = np.concatenate([P_F, GAINS])
     _f0, _fv, fp, S_, T0, Tm, err_, _Tg, gK = (np.asarray(x) for x in fns.terms(q, dq, p))
     S, err = S_.item(), err_.item()
-    assert S > 0.0  # the start lies inside obstacle 1's neighbourhood (SPEC)
+    assert S > 0.0  # the start lies inside obstacle 1's neighbourhood
     # Independent K and its gradient by finite differences of the numeric penalty.
     s = ca.SX.sym("p", 3)
     C = ca.Function("C", [s], [obstacle.model.radial_distance_sym(s)])
@@ -197,9 +197,9 @@ def test_projector_push_damping_and_torque_split(robot: Robot, crit) -> None:  #
     np.testing.assert_allclose(fp.ravel(), P @ (-grad), rtol=1e-5, atol=1e-7)
     np.testing.assert_allclose(A @ fp.ravel(), 0.0, atol=1e-10)
     np.testing.assert_allclose(P @ P, P, atol=1e-12)
-    # The projected push is not shrunk ~800x on the platform (wheel metric, SPEC pitfall).
+    # The push is not shrunk ~800x on the platform (wheel metric, docs/extended_jacobian.md).
     assert np.linalg.norm(fp.ravel()[:2]) > 0.3 * np.linalg.norm(grad[:2])
-    # tau = T0 + Tm ddq equals the robot's efforts (eq. (22) of 000).
+    # tau = T0 + Tm ddq equals the robot's efforts ([PajakPajak] eq. (22)).
     rng = np.random.default_rng(4)
     dq, ddq = rng.normal(size=8), rng.normal(size=8)
     out = fns.terms(q, dq, p)

@@ -1,4 +1,4 @@
-"""The generator's effort split tau = T0 + Tm ddq (ej_effort, kinetic-energy form of the bias)
+"""The generator's effort split tau = T0 + Tm ddq (effort.py, kinetic-energy form of the bias)
 equals the robot's own actuator efforts (N^T B)^-1 N^T (M ddq + c), built from M and c."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Near-goal projection of the obstacle push (ej_nearpush): closed-form properties."""
+"""Near-goal projection of the obstacle push (near_goal.py): closed-form properties."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def test_projection_scales_the_task_part_and_stays_in_ker_a(sigma: float) -> Non
     winv = wheel_metric_inverse(robot)
     WA = winv[:, None] * A.T
     P = np.eye(robot.n) - WA @ np.linalg.solve(A @ WA, A)
-    fp = P @ rng.normal(size=robot.n)  # a push in ker A, as ej_dynamics builds it
+    fp = P @ rng.normal(size=robot.n)  # a push in ker A, as generator.py builds it
     out = _projected(J, A, winv, fp, sigma)
     np.testing.assert_allclose(J @ out, (1.0 - sigma) * (J @ fp), atol=1e-9)
     np.testing.assert_allclose(A @ out, 0.0, atol=1e-9)

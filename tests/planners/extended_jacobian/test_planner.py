@@ -1,9 +1,9 @@
-"""Extended-Jacobian planner end to end (papers 000, 003; SPEC section 3).
+"""Extended-Jacobian planner end to end ([PajakPajak], [Pajak]; docs/extended_jacobian.md).
 
-The youbot-4r runs (paper 003) are complete plans (about 1800 steps each); the youbot-3r
+The youbot-4r runs ([Pajak] example) are complete plans (about 1800 steps each); the youbot-3r
 obstacle runs use short horizons here (the full runs are in bench/bench_extended_jacobian.py).
 Obstacles come from a test-local ellipsoid so that these tests do not depend on the scene
-package; test_extended_jacobian_scenarios.py runs the scenario files with the real scene.
+package; test_scenarios.py runs the scenario files with the real scene.
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ def test_youbot4r_plain_generator_reaches_goal_like_reference(youbot4r_plain: Pl
     assert youbot4r_plain.status is Status.REACHED
     err = np.linalg.norm(tr.ee - np.array([2.0, 1.0, 0.3]), axis=1)
     assert err[-1] < 1e-3
-    assert completion_time(tr.t, err, 1e-2) == pytest.approx(6.1, abs=0.1)  # SPEC reference
+    assert completion_time(tr.t, err, 1e-2) == pytest.approx(6.1, abs=0.1)  # [RefRuns]
     assert robot.manipulability(tr.q[0]) == pytest.approx(0.0100, abs=5e-5)
     assert tr.is_finite()
     assert tr.u is not None and np.all(tr.u == 1.0)
@@ -246,7 +246,7 @@ def test_start_in_collision_and_infeasible_torques_are_rejected() -> None:
 
 
 def test_time_mode_keeps_limits_on_the_unconstrained_path() -> None:
-    """Time mode (ej_timescale/ej_topp): same path as without limits, efforts in the zone."""
+    """Time mode (mmplan.time_scaling.topp): same path as without limits, efforts in the zone."""
     robot = get_robot("youbot-3r")
     free = _plan(
         robot.with_limits(
@@ -329,8 +329,8 @@ def test_goal_near_an_obstacle_shrinks_its_neighbourhood_and_inside_is_rejected(
     [("youbot4r-reach", 2.0), ("youbot4r-reach-smooth", 2.0), ("youbot3r-obstacles", 1.2)],
 )
 def test_chunked_fast_path_reproduces_the_step_by_step_loop(name: str, t_max: float) -> None:
-    """The chunked fast path (ej_fastpath, ej_step; with the virtual-control choice inside the
-    chunk for youbot4r-reach-smooth, ej_feedback) gives the loop's samples to ~1e-9."""
+    """The chunked fast path (chunks.py, step.py; with the virtual-control choice inside the
+    chunk for youbot4r-reach-smooth, torque/feedback.py) gives the loop's samples to ~1e-9."""
     import dataclasses
 
     from mmplan.planners.extended_jacobian.generator import wheel_metric_inverse
@@ -358,7 +358,7 @@ def test_chunked_fast_path_reproduces_the_step_by_step_loop(name: str, t_max: fl
 
 
 def test_symbolic_virtual_control_choice_matches_numpy_cases() -> None:
-    """ej_decision_sym.choose_sym equals virtual_control.choose wherever eq. (30) holds."""
+    """decision_symbolic.choose_sym equals virtual_control.choose wherever eq. (30) holds."""
     from mmplan.planners.extended_jacobian.torque import virtual_control as vc
     from mmplan.planners.extended_jacobian.torque.decision_symbolic import choose_sym
 
@@ -384,7 +384,7 @@ def test_symbolic_virtual_control_choice_matches_numpy_cases() -> None:
 
 
 def test_online_step_is_one_call_that_matches_the_numpy_decision() -> None:
-    """The online function (ej_decision_sym) gives decide()'s ddq, tau, u along a rollout."""
+    """The online function (decision_symbolic) gives decide()'s ddq, tau, u along a rollout."""
     robot = _wheel_limited(get_robot("youbot-4r"), 0.2)
     settings = ExtendedJacobianSettings.model_validate({"dt": 0.005, "t_max": 0.2})
     problem = Problem(robot, BlobScene([]), ReachPoint((2.0, 1.0, 0.3), 1e-3), Q0_4R, settings)  # type: ignore[arg-type]
@@ -393,7 +393,7 @@ def test_online_step_is_one_call_that_matches_the_numpy_decision() -> None:
 
     prep = ExtendedJacobian._prepare(problem)
     winv = wheel_metric_inverse(robot)
-    # The step-by-step loop decides every sample with NumPy (ej_decision.decide).
+    # The step-by-step loop decides every sample with NumPy (torque.decision.decide).
     planned = rollout(prep.fns, robot.pfaffian, winv, prep.q0, prep.p_f, prep.options, fast=False)
     online = ExtendedJacobian().online(problem)
     assert 0.0 < planned.u[-1] < 1.0  # the choice is exercised

@@ -39,7 +39,7 @@ START_GAP, GOAL_GAP = 0.15, 0.45
 #: from every obstacle, inside the arm's reach). Reached on this set (SEED) / on a second set
 #: (seed 777, same generator, not in the test):
 #:   before: 18 / 21 (10 timeouts, 2 diverged);
-#:   near-goal push projection (ej_nearpush.project_push): 21 / 26 (random-21, -22, -24 had
+#:   near-goal push projection (near_goal.project_push): 21 / 26 (random-21, -22, -24 had
 #:   stalled 0.009-0.18 m from the goal, body 0.29 m from an obstacle);
 #:   + arm push fading at joint limits (fade_at_limits): q2 no longer reaches its limit
 #:   (random-11, -18 and 777-23 had 0.005 rad left, cond(E) > 1e8: diverged);
@@ -58,7 +58,8 @@ START_GAP, GOAL_GAP = 0.15, 0.45
 REACHED_FLOOR = 0.9
 #: Reached plans that fail one check (planner bugs, reported); none at present. random-6
 #: (torque limits) failed dq consistency (0.246/s vs 0.152) until the TOPP checked the zone
-#: at both ends of each interval (ej_topp; regression tests in test_extended_jacobian_topp).
+#: at both ends of each interval (time_scaling/topp.py; regression tests in
+#: tests/time_scaling/test_topp.py).
 KNOWN_CHECK_FAILURES: dict[str, str] = {}
 
 
@@ -90,7 +91,7 @@ def _obstacle(rng: np.random.Generator, goal: np.ndarray) -> dict[str, Any]:
 
 
 def random_scenario(rng: np.random.Generator, index: int, count: int) -> dict[str, Any]:
-    """Scenario ``index`` of ``count`` in the YAML form (SPEC section 8)."""
+    """Scenario ``index`` of ``count`` in the YAML form (docs/conventions.md)."""
     robot = get_robot("youbot-3r")
     start_points = robot.collision_points(np.asarray(START))
     heading = 2.0 * np.pi * (index + rng.uniform(0.0, 1.0)) / count - np.pi

@@ -1,4 +1,4 @@
-"""Path searches in a voxelized LMA (lma_path) against brute-force references."""
+"""Path searches in a voxelized LMA (manipulability_area/path.py) against brute-force references."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from mmplan.planners.manipulability_area import path as lma_path
 
 
 def brute_force_straight(masks: np.ndarray) -> tuple[float, set[tuple[int, int, int, int]]]:
-    """Paper 004 round robin, literally: every (start, end) pair, every layer (rounded)."""
+    """[Nagatani] s.4.1 round robin, literally: every (start, end) pair, every layer (rounded)."""
     L = masks.shape[0]
     best, pairs = np.inf, set[tuple[int, int, int, int]]()
     for a in np.argwhere(masks[0]):

@@ -1,4 +1,4 @@
-"""Manipulability-area planner (paper 004, SPEC section 7) through Problem objects."""
+"""Manipulability-area planner ([Nagatani]; docs/manipulability_area.md) through Problem objects."""
 
 from __future__ import annotations
 
@@ -57,17 +57,17 @@ def test_registered_and_defaults() -> None:
     assert s.layers == 31 and s.threshold_ratio == 0.5
 
 
-def test_wall_segment_matches_spec_reference(wall: PlanResult) -> None:
+def test_wall_segment_matches_the_reference_runs(wall: PlanResult) -> None:
     info = wall.info
     assert wall.status is Status.REACHED, wall.message
     assert info["path_kind"] == "straight"
-    # SPEC: horizontal length 0.122 m (grid displacement (+-2, 12) cells), threshold 0.00397
+    # [RefRuns]: horizontal length 0.122 m (grid displacement (+-2, 12) cells), threshold 0.00397
     assert info["path_length_m"] == pytest.approx(0.01 * np.hypot(2, 12), abs=1e-9)
     assert info["manipulability_threshold"] == pytest.approx(0.00397, abs=5e-6)
     assert info["manipulability_min"] >= info["manipulability_threshold"]
     assert info["manipulability_threshold"] == pytest.approx(
         0.5 * wall.artifacts["manipulability_max_per_layer"].max(), rel=1e-12)
-    # the SPEC's reference segment has the same length and clears the threshold (exact IK)
+    # the [RefRuns] segment has the same length and clears the threshold (exact IK)
     poses = lma_grid.tool_poses(WALL, 31)
     s = np.linspace(0, 1, 31)[:, None]
     ref = np.array([0.27, 0.26]) + s * np.array([0.02, 0.12])
@@ -93,7 +93,7 @@ def test_wall_trajectory(wall: PlanResult, fk: ca.Function) -> None:
     # straight base path between start_xy and end_xy, linear in the layer parameter
     a, b = np.array(wall.info["start_xy"]), np.array(wall.info["end_xy"])
     np.testing.assert_allclose(q[:, :2], a + traj.t[:, None] * (b - a), atol=1e-12)
-    # tool tip on the segment (robot model FK, independent of puma_ik), tool axis along -x
+    # tool tip on the segment (robot model FK, independent of base_6dof_ik), tool axis along -x
     p_dm, R_dm = fk.map(31)(q.T)
     p, R = np.asarray(p_dm).T, np.asarray(R_dm).reshape(3, 31, 3).transpose(1, 0, 2)
     target = np.array(WALL.start) + traj.t[:, None] * (np.array(WALL.end) - np.array(WALL.start))
@@ -166,7 +166,7 @@ def test_artifacts_for_the_report(wall: PlanResult) -> None:
 
 def test_heading_changes_q1_only() -> None:
     """The first joint is vertical through the platform centre: w and the base path do not
-    depend on the heading, q1 absorbs it (SPEC section 7, heading fixed by the task)."""
+    depend on the heading, q1 absorbs it ([Nagatani]: heading fixed by the task)."""
     a = plan(WALL, **COARSE)
     b = plan(WALL, heading=np.pi / 2, **COARSE)
     assert a.status is Status.REACHED and b.status is Status.REACHED

@@ -1,4 +1,4 @@
-"""The built-in scenarios of the manipulability-area planner load and plan (SPEC section 8)."""
+"""The built-in scenarios of the manipulability-area planner load and plan."""
 
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ def test_wall_segment_limits_scenario_needs_subgoals() -> None:
 
 
 def test_wall_segment_summary_reports_threshold_and_independent_minimum(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    """summary.json holds the threshold, and the checker's own minimum of 004's w (6x6 tool
+    """summary.json holds the threshold, and the checker's own minimum of [Nagatani]'s w (6x6 tool
     Jacobian of the robot model, not the planner's closed form) stays above it."""
     import json
 

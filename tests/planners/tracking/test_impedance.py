@@ -1,4 +1,4 @@
-"""Virtual impedance for the omnidirectional mobile manipulator (paper 001 s. 3, SPEC s. 5)."""
+"""Virtual impedance for the omnidirectional mobile manipulator ([AbdessemedDjebrani] s.3)."""
 
 from __future__ import annotations
 
@@ -117,7 +117,7 @@ def test_step_solves_eq37_with_impedance_reference(rng: np.random.Generator) -> 
         xi = np.concatenate([robot.ee_position(q), q[:3]])
         expected = np.linalg.solve(J_t, dxi_ref + 5.0 * (xi_ref - xi))
         np.testing.assert_allclose(u, expected, rtol=1e-9, atol=1e-10)
-        # platform task reading of SPEC 5: (X_d,x, X_d,y, pi/4)
+        # our reading of the platform task (docs/tracking.md): (X_d,x, X_d,y, pi/4)
         np.testing.assert_allclose(r0[6:9], [0.1 * t, 0.1 * t, np.pi / 4], atol=1e-15)
 
 
@@ -152,7 +152,7 @@ def test_omni3_impedance_example() -> None:
     assert without.info["platform_obstacle_distance_at_pass_m"] == pytest.approx(0.2375, abs=2e-3)
     at_pass = with_imp.info["platform_obstacle_distance_at_pass_m"]
     assert at_pass == pytest.approx(dist[np.argmin(abs(tr.t - 1.75))] - 0.01, abs=1e-6)
-    assert at_pass > 0.33  # SPEC reference 0.365 m (centre) at the pass
+    assert at_pass > 0.33  # [RefRuns]: 0.365 m (centre) at the pass
     assert without.info["min_clearance_m"] < 0  # the platform (r 0.25) touches the post
 
 

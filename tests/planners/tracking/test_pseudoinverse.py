@@ -1,4 +1,4 @@
-"""Weighted-pseudoinverse path tracking (paper 001 section 2, SPEC section 4)."""
+"""Weighted-pseudoinverse path tracking ([AbdessemedDjebrani] s.2; docs/tracking.md)."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def _random_q(rng: np.random.Generator, count: int) -> np.ndarray:
 
 
 def _eq2(q: np.ndarray) -> np.ndarray:
-    """Eq. (2) of 001 with l1, l2, l3 = 0.6, 0.4, 0.3."""
+    """[AbdessemedDjebrani] eq. (2) with l1, l2, l3 = 0.6, 0.4, 0.3."""
     x, y, phi, t1, t2, t3 = q
     reach = 0.4 * np.cos(t2) + 0.3 * np.cos(t2 + t3)
     return np.array(

@@ -73,8 +73,8 @@ def plus_function(x: ca.SX, sharpness: float) -> ca.SX:
 
 
 class EndogenousModel:
-    """Compiled end point map, Jacobian and trajectory of the regularized system ([JaniakTchon] eq.
-    (10)).
+    """Compiled end point map, Jacobian and trajectory of the regularized system
+    ([JaniakTchon] eq. (10)).
 
     Args:
         robot: The mobile manipulator; its platform contributes G(q_p) (kernel basis).
@@ -145,8 +145,8 @@ class EndogenousModel:
 
     # ------------------------------------------------------------------ symbolic pieces
     def control(self, phi: ca.SX, lam: ca.SX) -> ca.SX:
-        """u = P(t) lambda ([JaniakTchon] eq. (17)) from the basis values phi (max terms,),
-        (n_u,)."""
+        """u = P(t) lambda ([JaniakTchon] eq. (17)) from the basis values phi
+        (max terms,), (n_u,)."""
         out, k = [], 0
         for terms in self.basis_terms:
             out.append(sum(lam[k + j] * phi[j] for j in range(terms)))

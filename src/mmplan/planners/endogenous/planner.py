@@ -143,8 +143,8 @@ def _iterate(
     bound_tol: float,
     progress: Progress,
 ) -> _Run:
-    """Theta-iteration [JaniakTchon] eqs. (14), (20) with explicit Euler step 1; sets status and
-    message."""
+    """Theta-iteration [JaniakTchon] eqs. (14), (20) with explicit Euler step 1; sets status
+    and message."""
     run = _Run(lam.copy(), x.copy())
     n_lam = model.n_lambda
     first = None

@@ -19,8 +19,8 @@ def effort_split(robot: Robot) -> tuple[ca.SX, ca.SX]:
     Without friction c(q, dq) = C(q, dq) dq + g(q) is rebuilt by Lagrange's equations from
     the kinetic energy T written with the bodies' velocities (sum m |v_c|^2 / 2 +
     omega^T I omega / 2): c = d/dt(dT/d dq) - dT/dq + g(q), 2.5-3x smaller than the robot's
-    bias (equal to 1e-17, tests/test_extended_jacobian.py); with friction the robot's bias is
-    used as is.
+    bias (equal to 1e-17, tests/planners/extended_jacobian/test_effort.py); with friction the
+    robot's bias is used as is.
     """
     s = robot.symbols
     q, dq = s.q, s.dq

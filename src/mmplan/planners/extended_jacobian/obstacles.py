@@ -46,7 +46,7 @@ N_PARAMS = 6
 
 
 class SmoothObstacle(Protocol):
-    """What the generator needs of an obstacle model (a scene ``Superellipsoid``)."""
+    """What the generator needs of an obstacle model (a scene ``SuperellipsoidModel``)."""
 
     def radial_distance_sym(self, p: ca.SX) -> ca.SX:
         """Radial distance C from the point p (3,) to the surface, SX scalar."""

@@ -16,16 +16,8 @@ Torque limits, two formulations (``virtual_control.mode``):
   scaling w in [0, 1] keeps every effort in the safety zone (a true time scaling, which
   also slows the velocity terms); default when the scene has obstacles.
 
-Modules: :mod:`~mmplan.planners.extended_jacobian.settings` (settings),
-:mod:`~mmplan.planners.extended_jacobian.cache`
-(generator cache), :mod:`~mmplan.planners.extended_jacobian.criterion` (H, g, E, partition rule),
-:mod:`~mmplan.planners.extended_jacobian.generator` (compiled generator step),
-:mod:`~mmplan.planners.extended_jacobian.torque.virtual_control` (cases (a)-(d), growth laws),
-:mod:`~mmplan.planners.extended_jacobian.rollout` (loop, statuses, stall escape),
-:mod:`~mmplan.planners.extended_jacobian.time_scaling` and :mod:`~mmplan.time_scaling.topp` (time
-mode),
-:mod:`~mmplan.planners.extended_jacobian.online` (online step for a control loop),
-:mod:`~mmplan.planners.extended_jacobian.checks` (input checks, InputError before planning).
+The modules this planner runs, in data-flow order, are listed in
+:mod:`mmplan.planners.extended_jacobian`.
 """
 
 from __future__ import annotations

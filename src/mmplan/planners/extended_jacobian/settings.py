@@ -104,5 +104,6 @@ class ExtendedJacobianSettings(PlannerSettings):
     )
     vibration: bool = Field(
         True, description="the CLI and mmplan.analysis.analyse add the tip-vibration study "
-        "([Pajak] s.4, s.5.3) after planning (not part of planning or compute_time_s)",
+        "([Pajak] s.4, experiment of s.5.3, Figs. 8-9) after planning (not part of planning "
+        "or compute_time_s)",
     )

@@ -1,4 +1,5 @@
-"""Virtual control (eqs. (24)-(31) of 000, (19)-(22) of 003): zone, cases (a)-(d), growth laws."""
+"""Virtual control ([PajakPajak] eqs. (24)-(31), [Pajak] eqs. (19)-(22)):
+zone, cases (a)-(d), growth laws."""
 
 from __future__ import annotations
 
@@ -69,13 +70,13 @@ def test_control_without_lever_outside_zone_is_infeasible() -> None:
 
 
 def test_growth_laws_integrate_their_odes() -> None:
-    # Constant law (eq. (31) of 000) against a fine Euler integration.
+    # Constant law ([PajakPajak] eq. (31)) against a fine Euler integration.
     u, dt, rho = 0.2, 0.01, 1.5
     fine = u
     for _ in range(1000):
         fine += 1e-5 * rho * (1 - fine)
     assert vc.grow(u, dt, vc.Growth.CONSTANT, rho, 0.01, 10.0, 0.0) == pytest.approx(fine, abs=1e-6)
-    # Distance law (eqs. (21)-(22) of 003): rate 1/rho_min at the goal, ~1/rho_max far away.
+    # Distance law ([Pajak] eqs. (21)-(22)): rate 1/rho_min at the goal, ~1/rho_max far away.
     near = vc.grow(0.0, 1e-4, vc.Growth.DISTANCE, 1.0, 0.01, 10.0, 0.0)
     far = vc.grow(0.0, 1e-4, vc.Growth.DISTANCE, 1.0, 0.01, 10.0, 50.0)
     assert near == pytest.approx(1 - np.exp(-1e-4 / 0.01))
