@@ -8,7 +8,8 @@ from mmplan.robot.bases import (
     UnicycleDrive,
 )
 from mmplan.robot.library import get_robot, robot_names
-from mmplan.robot.robot import CollisionSphere, EndEffector, Limits, Robot
+from mmplan.robot.limits import Limits, RateLimits
+from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
 
 __all__ = [
     "CollisionSphere",
@@ -18,6 +19,7 @@ __all__ = [
     "Limits",
     "Omnidirectional",
     "Platform",
+    "RateLimits",
     "Robot",
     "UnicycleDrive",
     "get_robot",

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from mmplan.errors import InputError, ModelError
 from mmplan.robot import dynamics
 from mmplan.robot.bases import Platform
+from mmplan.robot.limits import Limits
 from mmplan.robot.tree import Body, Joint, KinematicTree
 
 Array = NDArray[np.float64]
@@ -45,26 +46,6 @@ class CollisionSphere:
     body: str
     center: tuple[float, float, float]
     radius: float = 0.0
-
-
-@dataclass(frozen=True)
-class Limits:
-    """Joint limits of the arm coordinates and actuator effort limits.
-
-    Attributes:
-        joint_min, joint_max: Arm joint limits (n_arm,) [rad or m].
-        torque_min, torque_max: Actuator limits (n_act,) [N m or N]; +-inf where unlimited.
-    """
-
-    joint_min: Array
-    joint_max: Array
-    torque_min: Array
-    torque_max: Array
-
-    @property
-    def has_torque_limits(self) -> bool:
-        """True when at least one actuator limit is finite."""
-        return bool(np.isfinite(self.torque_min).any() or np.isfinite(self.torque_max).any())
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,8 @@ import numpy as np
 from mmplan.errors import InputError
 from mmplan.robot.bases import PLATFORM, Platform
 from mmplan.robot.collision import points_on_box, points_on_segment
-from mmplan.robot.robot import CollisionSphere, EndEffector, Limits, Robot
+from mmplan.robot.limits import Limits
+from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
 
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}

@@ -28,7 +28,7 @@ Exact distance (:func:`signed_distance`):
    whose nearest point lies within 0.02 (scaled) of such a plane are polished by a compass
    search that also tries candidates snapped onto the planes.
 
-Accuracy (tests/test_scene_superellipsoid.py, against an independent brute-force reference,
+Accuracy (tests/scene/test_superellipsoid.py, against an independent brute-force reference,
 exponents (0.1, 1), (1, 1), (0.1, 0.1), (0.6, 0.4), (1.5, 0.5), (2, 2)): within 1e-6 m
 inside and outside; the reference (itself an upper bound) is never beaten by more than 1e-9 m.
 Outside, the other critical points of the distance on a convex surface face away from the

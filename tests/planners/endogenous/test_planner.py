@@ -268,7 +268,7 @@ def test_non_finite_error_ends_as_diverged_with_the_last_finite_plan(
 
 
 def test_arm_joint_outside_its_limits_is_infeasible_and_a_bound_fixes_it(robot: Robot) -> None:
-    from mmplan.robot.robot import Limits
+    from mmplan.robot.limits import Limits
 
     tight = robot.with_limits(
         Limits(

@@ -22,7 +22,8 @@ from mmplan.planners.extended_jacobian.settings import (
 )
 from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
-from mmplan.robot.robot import Limits, Robot
+from mmplan.robot.limits import Limits
+from mmplan.robot.robot import Robot
 from mmplan.task import ReachPoint, completion_time
 from mmplan.trajectory import PlanResult, Status
 

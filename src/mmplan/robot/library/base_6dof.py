@@ -17,7 +17,8 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, Omnidirectional
 from mmplan.robot.collision import points_on_segment
-from mmplan.robot.robot import CollisionSphere, EndEffector, Limits, Robot
+from mmplan.robot.limits import Limits
+from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
 
 SCALE = 0.4

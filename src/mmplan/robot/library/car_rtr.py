@@ -16,7 +16,8 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, KinematicCar
 from mmplan.robot.collision import points_on_box, points_on_segment
-from mmplan.robot.robot import EndEffector, Limits, Robot
+from mmplan.robot.limits import Limits
+from mmplan.robot.robot import EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
 
 LENGTH = 1.0

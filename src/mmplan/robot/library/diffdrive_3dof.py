@@ -15,7 +15,8 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, UnicycleDrive
 from mmplan.robot.collision import points_on_segment
-from mmplan.robot.robot import CollisionSphere, EndEffector, Limits, Robot
+from mmplan.robot.limits import Limits
+from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
 
 L1, L2, L3 = 0.6, 0.4, 0.3

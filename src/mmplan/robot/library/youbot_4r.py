@@ -24,7 +24,8 @@ import numpy as np
 from mmplan.robot.bases import PLATFORM, DifferentialDrive
 from mmplan.robot.collision import points_on_box, points_on_segment
 from mmplan.robot.dynamics import Friction
-from mmplan.robot.robot import EndEffector, Limits, Robot
+from mmplan.robot.limits import Limits
+from mmplan.robot.robot import EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
 
 WHEEL_RADIUS = 0.05
