@@ -16,9 +16,9 @@ import tempfile
 import time
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
+from mmplan.arrays import Array
 from mmplan.planners.endogenous import cache as endogenous_cache
 from mmplan.planners.endogenous.planner import EndogenousPlanner
 from mmplan.planners.endogenous.settings import BoundSetting, EndogenousSettings
@@ -27,7 +27,6 @@ from mmplan.robot.library import get_robot
 from mmplan.scene.scene import Scene
 from mmplan.task import ReachPoint
 
-Array = NDArray[np.float64]
 L2 = L3 = 0.5
 A_SHARP = 50.0
 START = np.array([20.0, 0.0, np.pi / 2, 0.0, 0.0, 1.0, np.pi / 2])

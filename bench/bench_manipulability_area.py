@@ -34,6 +34,7 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.manipulability_area import grid as lma_grid
 from mmplan.planners.manipulability_area import path as lma_path
 from mmplan.planners.manipulability_area.planner import (
@@ -47,7 +48,6 @@ from mmplan.robot.library.base_6dof_ik import PumaGeometry
 from mmplan.scene import Scene
 from mmplan.task import DrawSegment
 
-Array = NDArray[np.float64]
 WALL = DrawSegment((0.0, 0.0, 0.32), (0.0, 0.60, 0.62), (1.0, 0.0, 0.0))
 
 

@@ -29,9 +29,6 @@ from mmplan.robot.robot import Robot
 from mmplan.scene.scene import Scene
 from mmplan.task import Task
 
-#: A float array (shape given where it is used).
-Array = NDArray[np.float64]
-
 #: Called with the fraction done (0..1) while planning; may be None.
 Progress = Callable[[float], None] | None
 

@@ -8,11 +8,9 @@ from enum import StrEnum
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import ModelError
-
-Array = NDArray[np.float64]
 
 
 class Status(StrEnum):

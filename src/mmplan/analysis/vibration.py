@@ -45,13 +45,12 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 import scipy.linalg
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.robot.robot import Robot
 from mmplan.trajectory import PlanResult, Trajectory
-
-Array = NDArray[np.float64]
 
 #: Defaults: a 15 Hz tip mode ([Pajak] Fig. 9 shows 10-20 Hz), 3 % damping.
 FREQUENCY_HZ = 15.0

@@ -31,15 +31,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError, ModelError
 from mmplan.problem import Problem
 from mmplan.scenario.loader import Scenario, load_scenario
 from mmplan.trajectory import PlanResult, Trajectory
 from mmplan.verify.check import check
-
-Array = NDArray[np.float64]
 
 FORMATS = ("csv", "npz")
 

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.report.plan_data import PlanData
 from mmplan.robot import Limits, Robot, get_robot
@@ -26,8 +27,6 @@ from mmplan.task import (
     Task,
     WaypointPath,
 )
-
-Array = NDArray[np.float64]
 
 #: Planner-setting keys that may hold the obstacle enlargement eps [m] (docs/conventions.md).
 MARGIN_KEYS = ("margin", "obstacle_margin", "enlargement", "safety_margin")

@@ -12,11 +12,9 @@ from collections.abc import Mapping
 
 import numpy as np
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.report.figure_kit import DPI, RenderedFigure, render
-
-Array = NDArray[np.float64]
 
 FREQ = "vibration_freq_hz"
 TOTAL = "vibration_amplitude"

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-Array = NDArray[np.float64]
+from mmplan.arrays import Array
 
 REQUIRED = (
     "grid_x",

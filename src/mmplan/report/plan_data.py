@@ -15,11 +15,9 @@ from typing import Any
 
 import numpy as np
 import yaml
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
-
-Array = NDArray[np.float64]
 
 REQUIRED_FILES = ("trajectory.csv", "summary.json", "scenario.yaml")
 

@@ -25,15 +25,14 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError, ModelError
 from mmplan.robot import dynamics
 from mmplan.robot.bases import Platform
 from mmplan.robot.limits import Limits
 from mmplan.robot.tree import Body, Joint, KinematicTree
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

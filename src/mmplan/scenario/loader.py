@@ -17,19 +17,18 @@ from typing import Any
 
 import numpy as np
 import yaml
-from numpy.typing import NDArray
 from pydantic import ValidationError
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError, MmplanError
 from mmplan.planners import methods, settings_model
 from mmplan.problem import PlannerSettings, Problem
 from mmplan.robot import Limits, Robot, get_robot
 from mmplan.scenario.parse import ScenarioError, parse_yaml, validation_error
+from mmplan.scenario.rates import rates_dict, resolve_rates
 from mmplan.scenario.schema import GoalSpec, LimitsSpec, ScenarioSpec
 from mmplan.scene import Obstacle, Scene, obstacle_from_dict
 from mmplan.task import DrawSegment, LinePath, PolynomialPath, ReachPoint, Task, WaypointPath
-
-Array = NDArray[np.float64]
 
 
 def builtin_scenarios() -> dict[str, Path]:
@@ -157,7 +156,7 @@ class Scenario:
             "obstacles": [_shape_first(o.model_dump(mode="python", exclude_none=True))
                           for o in self.spec.obstacles],
             "limits": {"joints": {"min": _floats(lim.joint_min), "max": _floats(lim.joint_max)},
-                       "torque": torque},
+                       "torque": torque, **rates_dict(lim.rates, self.robot)},
             "planner": (self.settings.model_dump(mode="json") if self.planner_validated
                         else dict(self.spec.planner)),
         }
@@ -216,7 +215,7 @@ def _limits(spec: LimitsSpec | None, robot: Robot) -> Limits:
         if bad.size:
             i = int(bad[0])
             raise InputError(f"{key}.min[{i}]", f"min {lo[i]:g} > max {hi[i]:g}")
-    return Limits(jmin, jmax, tmin, tmax)
+    return Limits(jmin, jmax, tmin, tmax, resolve_rates(spec, robot))
 
 
 def _settings(planner: Mapping[str, Any], source: str, required: bool) -> PlannerSettings:

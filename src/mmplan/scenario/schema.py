@@ -33,7 +33,12 @@ neighbourhood; lengths in m, angles in rad):
 Limits (each side optional; the robot's defaults otherwise):
 ``joints: {min: [...], max: [...]}`` over the arm coordinates;
 ``torque: {min: [...], max: [...]}`` over the actuators (``.inf`` allowed) or
-``torque: unlimited``.
+``torque: unlimited``;
+``velocity`` and ``acceleration``: ``{coordinates: {name: bound}, platform_linear: bound,
+platform_angular: bound}``, absolute bounds (> 0) on |dq|, |ddq| of named coordinates and on the
+platform's planar speed / acceleration and yaw rate / acceleration; a key given overrides the
+robot's default, ``null`` turns that limit off (``velocity: null`` all of them). Coordinate
+names are checked against the robot in :mod:`mmplan.scenario.rates`.
 """
 
 from __future__ import annotations
@@ -258,11 +263,44 @@ class TorqueRangeSpec(Strict):
         return self
 
 
+def _positive_limit(value: float) -> float:
+    if not value > 0:
+        raise ValueError(f"must be > 0, got {value:g}; null turns the limit off")
+    return value
+
+
+#: A rate limit: finite and > 0 (``null`` in YAML, None here, turns it off).
+RateBound = Annotated[float, Field(strict=True, allow_inf_nan=False),
+                      AfterValidator(_in_range), AfterValidator(_positive_limit)]
+
+
+class RateLimitsSpec(Strict):
+    """Velocity [m/s, rad/s] or acceleration [m/s^2, rad/s^2] limits, as absolute bounds.
+
+    A key given overrides the robot's default, ``null`` turns that limit off (which keys were
+    given, null included, is ``model_fields_set``; a coordinate given as null maps to None).
+    """
+
+    coordinates: dict[str, RateBound | None] | None = None  # by name: arm joints, wheels
+    platform_linear: RateBound | None = None  # |(dx, dy)| or |(ddx, ddy)|
+    platform_angular: RateBound | None = None  # |dtheta| or |ddtheta|
+
+    @model_validator(mode="before")
+    @classmethod
+    def _mapping(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            raise ValueError("expected {coordinates: {name: bound}, platform_linear: bound, "
+                             f"platform_angular: bound}} or null, got {data!r}")
+        return data
+
+
 class LimitsSpec(Strict):
-    """Optional overrides of the robot's limits."""
+    """Optional overrides of the robot's limits (``velocity: null``: all velocity limits off)."""
 
     joints: JointRangeSpec | None = None
     torque: TorqueRangeSpec | None = None
+    velocity: RateLimitsSpec | None = None
+    acceleration: RateLimitsSpec | None = None
 
 
 # ------------------------------------------------------------------ scenario

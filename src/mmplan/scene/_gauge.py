@@ -50,12 +50,12 @@ from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+
+from mmplan.arrays import Array
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
-Array = NDArray[np.float64]
 
 _TINY = 1e-12  # lower clip of ratios raised to negative powers (exponents > 1)
 _SAMPLE_N = 48  # cube-map grid size per face of the seed sample

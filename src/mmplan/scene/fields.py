@@ -12,11 +12,11 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 
-Array = NDArray[np.float64]
 Vec3 = tuple[float, float, float]
 
 

@@ -1,13 +1,15 @@
 r"""Compiled backward and forward passes of the time-optimal scaling (:mod:`.topp`).
 
-Interval i of the path carries 2 n_act "slabs" lo <= a x + b v <= hi on (x_i, v_i): the
-effort of every actuator at sample i (a = alpha_i, b = beta_i / 2) and at sample i + 1
-(a = alpha_{i+1}, b = alpha_{i+1} Delta_i + beta_{i+1} / 2), lo/hi = zone - tau_g ([PajakPajak]
-eqs. (22), (25); first-order interpolation of TOPP-RA, Pham & Pham 2018, sec. VI). Slabs are
-oriented to b >= 0 (negating a row is exact). An infinite limit is the finite bound
-+-:data:`BIG`, so one build serves every pattern of finite limits.
+Interval i of the path carries 2 n "slabs" lo <= a x + b v <= hi on (x_i, v_i), one per
+constraint row (an actuator's effort, a coordinate's acceleration, a side of the platform's
+acceleration polygon; :mod:`.rates`) at sample i (a = alpha_i, b = beta_i / 2) and at sample
+i + 1 (a = alpha_{i+1}, b = alpha_{i+1} Delta_i + beta_{i+1} / 2), lo/hi = zone - g
+([PajakPajak] eqs. (22), (25); first-order interpolation of TOPP-RA, Pham & Pham 2018, sec. VI).
+Slabs are oriented to b >= 0 (negating a row is exact). An infinite limit is the finite bound
++-:data:`BIG`, so one build serves every pattern of finite limits. Velocity limits are not
+slabs: they bound x alone, by x_upper_i at each sample (raw input).
 
-Backward step (the reference's pair of 2D LPs): with the boxes 0 <= x <= x_max, |v| <= 1e6
+Backward step (the reference's pair of 2D LPs): with the boxes 0 <= x <= x_upper_i, |v| <= 1e6
 and the controllable set K_lo <= x + v Delta <= K_hi of i + 1, Fourier-Motzkin elimination
 of v gives the controllable set of x_i exactly: the projection of a 2D polygon is the
 intersection of the projections of its pairs of slabs. Slabs J, K with d = a_J b_K - a_K b_J
@@ -19,11 +21,11 @@ ignored; a row a = b = 0 is tested alone. Unlike the reference, nearly parallel 
 (0 < |d| <= 1e-14) are kept (their vertex is exact, if far away).
 
 Forward step: the largest v with every slab row of b > 1e-14 and x + v Delta in K of i + 1
-(the lower bound when roundoff leaves none), x_{i+1} clipped into K of i + 1 and [0, x_max],
-exactly as the reference's greedy pass.
+(the lower bound when roundoff leaves none), x_{i+1} clipped into K of i + 1 and
+[0, x_upper_{i+1}], exactly as the reference's greedy pass.
 
-The steps read raw samples (alpha, beta, tau_g, sigma); the state carries the neighbouring
-sample and the zone. They run by ``mapaccum`` over chunks of :data:`CHUNK` intervals, compiled
+The steps read raw samples (alpha, beta, g, sigma, x_upper); the state carries the neighbouring
+sample and the zone. The backward step costs O(n^2) (every pair of slabs), the forward O(n). They run by ``mapaccum`` over chunks of :data:`CHUNK` intervals, compiled
 to C once per n_act by :mod:`.codegen` (the CasADi VM when there is no compiler). Inputs are
 copied chunk by chunk into one preallocated buffer per process (so not thread-safe): fresh
 large NumPy temporaries cost page faults (about 6 us per 4 KiB page on the test VM), more
@@ -39,16 +41,15 @@ from typing import Protocol
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.compile import codegen
 
-Array = NDArray[np.float64]
-
-BIG = 1e30  # stands for an infinite limit (never binds: 0 <= x <= x_max, |v| <= 1e6)
+BIG = 1e30  # stands for an infinite limit (never binds: 0 <= x <= x_upper, |v| <= 1e6)
 V_BOX = 1e6  # |v| bound of the reference LP
 TOL = 1e-9  # emptiness slack (the reference accepts vertices 1e-9 outside a row)
 CHUNK = 256  # intervals per compiled call
+RAW = 3  # (n,) blocks of a raw sample: alpha, beta, g; then sigma and x_upper
 
 Slab = tuple[ca.SX, ca.SX, ca.SX, ca.SX]
 
@@ -96,7 +97,7 @@ def _oriented(a: ca.SX, b: ca.SX, lo: ca.SX, hi: ca.SX) -> Slab:
 
 
 def _interval(start: ca.SX, end: ca.SX, lo: ca.SX, hi: ca.SX, n: int) -> tuple[list[Slab], ca.SX]:
-    """Oriented slabs of the interval between raw samples [alpha, beta, tau_g, sigma]."""
+    """Oriented slabs of the interval between raw samples [alpha, beta, g, sigma, x_upper]."""
     delta = end[3 * n] - start[3 * n]
     slabs = []
     for k in range(n):
@@ -123,16 +124,16 @@ def _pair(s: Slab, t: Slab) -> tuple[ca.SX, ca.SX]:
 def backward_step(n: int) -> ca.Function:
     """(state of i + 1, raw sample i) -> (state of i, [K_lo, K_hi, empty] of i).
 
-    State: [K_lo, K_hi, x_max, lo (n), hi (n), raw sample] with the zone lo/hi (+-BIG when
-    infinite) and raw samples [alpha (n), beta (n), tau_g (n), sigma].
+    State: [K_lo, K_hi, lo (n), hi (n), raw sample] with the zone lo/hi (+-BIG when
+    infinite) and raw samples [alpha (n), beta (n), g (n), sigma, x_upper].
     """
-    r = 3 * n + 1
-    state, raw = ca.SX.sym("s", 3 + 2 * n + r), ca.SX.sym("raw", r)
-    x_max, lo, hi = state[2], state[3 : 3 + n], state[3 + n : 3 + 2 * n]
-    slabs, delta = _interval(raw, state[3 + 2 * n :], lo, hi, n)
+    r = RAW * n + 2
+    state, raw = ca.SX.sym("s", 2 + 2 * n + r), ca.SX.sym("raw", r)
+    lo, hi = state[2 : 2 + n], state[2 + n : 2 + 2 * n]
+    slabs, delta = _interval(raw, state[2 + 2 * n :], lo, hi, n)
     slabs.append((ca.SX(0.0), ca.SX(1.0), ca.SX(-V_BOX), ca.SX(V_BOX)))
     slabs.append((ca.SX(1.0), delta, state[0], state[1]))
-    x_lo, x_hi = ca.SX(0.0), x_max
+    x_lo, x_hi = ca.SX(0.0), raw[r - 1]
     for j in range(len(slabs)):
         for k in range(j + 1, len(slabs)):
             lo_jk, hi_jk = _pair(slabs[j], slabs[k])
@@ -140,38 +141,38 @@ def backward_step(n: int) -> ca.Function:
     x_hi = _max(x_hi, ca.SX(-BIG))  # -inf (parallel, disjoint) would make the slack NaN
     empty = x_lo > x_hi + TOL * (1.0 + ca.fabs(x_hi))
     k_lo = _max(_min(x_lo, x_hi), ca.SX(0.0))
-    new = ca.vertcat(k_lo, x_hi, state[2 : 3 + 2 * n], raw)
+    new = ca.vertcat(k_lo, x_hi, state[2 : 2 + 2 * n], raw)
     return ca.Function("ej_topp_bw", [state, raw], [new, ca.vertcat(k_lo, x_hi, empty)])
 
 
 def forward_step(n: int) -> ca.Function:
     """(state of i, [raw sample i + 1, K_lo, K_hi of i + 1]) -> (state of i + 1, x_{i+1}).
 
-    State: [x, x_max, lo (n), hi (n), raw sample] (as :func:`backward_step`).
+    State: [x, lo (n), hi (n), raw sample] (as :func:`backward_step`).
     """
-    r = 3 * n + 1
-    state, col = ca.SX.sym("s", 2 + 2 * n + r), ca.SX.sym("c", r + 2)
-    x, x_max, lo, hi = state[0], state[1], state[2 : 2 + n], state[2 + n : 2 + 2 * n]
-    slabs, delta = _interval(state[2 + 2 * n :], col[:r], lo, hi, n)
+    r = RAW * n + 2
+    state, col = ca.SX.sym("s", 1 + 2 * n + r), ca.SX.sym("c", r + 2)
+    x, lo, hi = state[0], state[1 : 1 + n], state[1 + n : 1 + 2 * n]
+    slabs, delta = _interval(state[1 + 2 * n :], col[:r], lo, hi, n)
     v_hi, v_lo = (col[r + 1] - x) / delta, (col[r] - x) / delta
     for a, b, s_lo, s_hi in slabs:
         use, ax = b > 1e-14, a * x
         v_hi = _min(v_hi, ca.if_else(use, (s_hi - ax) / b, BIG))
         v_lo = _max(v_lo, ca.if_else(use, (s_lo - ax) / b, -BIG))
     x_next = _min(_max(x + _max(v_hi, v_lo) * delta, col[r]), col[r + 1])  # stay in K
-    x_next = _min(_max(x_next, ca.SX(0.0)), x_max)
-    new = ca.vertcat(x_next, state[1 : 2 + 2 * n], col[:r])
+    x_next = _min(_max(x_next, ca.SX(0.0)), col[r - 1])
+    new = ca.vertcat(x_next, state[1 : 1 + 2 * n], col[:r])
     return ca.Function("ej_topp_fw", [state, col], [new, x_next])
 
 
 def _flat(step: ca.Function, name: str, n: int) -> ca.Function:
     """``step`` mapaccum'ed over CHUNK columns, one flat input [state, alpha (CHUNK, n),
-    beta, tau_g, sigma (CHUNK,), extra columns (CHUNK,) ...] and one flat output [last
-    state, outputs (CHUNK,) one after the other]."""
+    beta, g, sigma (CHUNK,), x_upper (CHUNK,), extra columns (CHUNK,) ...] and one flat output
+    [last state, outputs (CHUNK,) one after the other]."""
     n_s, n_c = step.size1_in(0), step.size1_in(1)
     z = ca.MX.sym("z", n_s + n_c * CHUNK)
     cols, at = [], n_s
-    for rows in [n, n, n] + [1] * (n_c - 3 * n):
+    for rows in [n] * RAW + [1] * (n_c - RAW * n):
         cols.append(ca.reshape(z[at : at + rows * CHUNK], rows, CHUNK))
         at += rows * CHUNK
     states, out = step.mapaccum(f"{name}_acc", CHUNK, 1)(z[:n_s], ca.vertcat(*cols))
@@ -180,7 +181,7 @@ def _flat(step: ca.Function, name: str, n: int) -> ca.Function:
 
 @lru_cache(maxsize=8)
 def passes(n: int) -> tuple[_Chunk, _Chunk]:
-    """(backward, forward) chunk passes for n actuators: compiled and cached on disk by
+    """(backward, forward) chunk passes for n constraint rows: compiled and cached on disk by
     :func:`codegen.compile_library` (built once per n and chunk length), else the VM."""
     names = (f"ej_topp_bw{n}", f"ej_topp_fw{n}")
 
@@ -208,19 +209,25 @@ def _fill(buf: Array, columns: list[Array], sel: slice) -> None:
 
 
 def backward(
-    alpha: Array, beta: Array, g: Array, sigma: Array, zone: Array, last: tuple[float, float]
+    alpha: Array,
+    beta: Array,
+    g: Array,
+    sigma: Array,
+    x_upper: Array,
+    zone: Array,
+    last: tuple[float, float],
 ) -> tuple[Array, Array, Array]:
     """K_lo, K_hi and the empty flags of samples 0 .. N-2, from ``last`` = [K_lo, K_hi] of
-    sample N - 1; ``zone`` = [x_max, lo (n), hi (n)] with +-BIG for infinite limits."""
+    sample N - 1; ``zone`` = [lo (n), hi (n)] with +-BIG for infinite limits."""
     N, n = alpha.shape
     chunk = passes(n)[0]
-    n_s = 3 + 2 * n + 3 * n + 1
-    state = np.concatenate([last, zone, alpha[-1], beta[-1], g[-1], sigma[-1:]])
+    n_s = 2 + 2 * n + RAW * n + 2
+    state = np.concatenate([last, zone, alpha[-1], beta[-1], g[-1], sigma[-1:], x_upper[-1:]])
     out = np.empty((3, N - 1))
     for top in range(N - 2, -1, -CHUNK):  # intervals top, top - 1, ..., top - CHUNK + 1
         sel = slice(top, top - CHUNK if top >= CHUNK else None, -1)
         chunk.x[:n_s] = state
-        _fill(chunk.x[n_s:], [alpha, beta, g, sigma], sel)
+        _fill(chunk.x[n_s:], [alpha, beta, g, sigma, x_upper], sel)
         y = chunk()
         state = y[:n_s].copy()
         count = min(CHUNK, top + 1)
@@ -229,18 +236,26 @@ def backward(
 
 
 def forward(
-    alpha: Array, beta: Array, g: Array, sigma: Array, zone: Array, K_lo: Array, K_hi: Array
+    alpha: Array,
+    beta: Array,
+    g: Array,
+    sigma: Array,
+    x_upper: Array,
+    zone: Array,
+    K_lo: Array,
+    K_hi: Array,
+    x_start: float = 0.0,
 ) -> Array:
-    """x_1 .. x_{N-1} of the greedy pass from x_0 = 0 (``zone`` as :func:`backward`)."""
+    """x_1 .. x_{N-1} of the greedy pass from x_0 = ``x_start`` (``zone`` as :func:`backward`)."""
     N, n = alpha.shape
     chunk = passes(n)[1]
-    n_s = 2 + 2 * n + 3 * n + 1
-    state = np.concatenate([[0.0], zone, alpha[0], beta[0], g[0], sigma[:1]])
+    n_s = 1 + 2 * n + RAW * n + 2
+    state = np.concatenate([[x_start], zone, alpha[0], beta[0], g[0], sigma[:1], x_upper[:1]])
     x = np.empty(N - 1)
     for first in range(1, N, CHUNK):  # samples first .. first + CHUNK - 1
         sel = slice(first, first + CHUNK)
         chunk.x[:n_s] = state
-        _fill(chunk.x[n_s:], [alpha, beta, g, sigma, K_lo, K_hi], sel)
+        _fill(chunk.x[n_s:], [alpha, beta, g, sigma, x_upper, K_lo, K_hi], sel)
         y = chunk()
         state = y[:n_s].copy()
         count = min(CHUNK, N - first)

@@ -1,9 +1,9 @@
-r"""Time-optimal scaling of a generator path under torque limits (docs/extended_jacobian.md).
+r"""Time-optimal scaling of a path under effort, velocity and acceleration limits.
 
-The extended-Jacobian generator without torque limits gives a collision-free path
-q(sigma) with q' = dq/dsigma and q'' = F (sigma is the generator's own time). Traversing it
-with the time rate w = dsigma/dt in [0, 1] gives dq/dt = w q', ddq = w^2 F + dw/dt q' and,
-with x = w^2 and v = dx/dsigma (so dw/dt = v/2), efforts affine in (x, v) ([PajakPajak] eq. (22);
+A path q(sigma) (e.g. the extended-Jacobian generator's, sigma its own time;
+docs/extended_jacobian.md) with q' = dq/dsigma and q'' = F is traversed with the time rate
+w = dsigma/dt <= w_max. Then dq/dt = w q', ddq = w^2 F + dw/dt q' and, with x = w^2 and
+v = dx/dsigma (so dw/dt = v/2), efforts are affine in (x, v) ([PajakPajak] eq. (22);
 c(q, w q') = w^2 (c(q, q') - g) + g without friction):
 
 .. math::
@@ -11,7 +11,14 @@ c(q, w q') = w^2 (c(q, q') - g) + g without friction):
     \tau_i = \alpha_i x_i + \tfrac12 \beta_i v_i + \tau_{g,i},\quad
     \alpha_i = \tau_{F,i} - \tau_{g,i},\ \beta_i = T_{m,i} q'_i,\quad x_{i+1} = x_i + v_i \Delta_i.
 
-Every sample must keep tau in the safety zone ([PajakPajak] eq. (25)), and on each interval
+Any constraint of this form is a "row" (alpha, beta, g) with bounds [lo, hi]: an
+acceleration limit |ddq_j| <= a_j is the row alpha = q''_j, beta = q'_j, g = 0 (exact), a side
+of the polygon that approximates a planar acceleration limit from inside another
+(:mod:`.rates`). A velocity limit |q'_j| w <= v_j bounds x alone, x <= v_j^2 / q'_j^2 (exact):
+all of them, and w_max^2, make the per-sample bound ``x_upper``.
+
+Every sample must keep each row in its zone (for efforts [PajakPajak] eq. (25)), and on each
+interval
 [sigma_i, sigma_i+1] the constant v_i must keep it there at both ends: at sigma_i with x_i and
 at sigma_i+1 with x_i + v_i Delta_i (the "first-order interpolation" discretization of
 TOPP-RA, Pham & Pham 2018, sec. VI). Checking only the start of each interval (collocation)
@@ -24,13 +31,17 @@ parametrization problem, solved by reachability analysis (TOPP-RA, Pham & Pham 2
 backward pass computes the controllable sets [K_lo, K_hi] of x at each sample (two small 2D
 LPs per sample), a forward pass from rest (x_0 = 0, the analogue of u0 = 0) takes the
 largest admissible v and keeps x_{i+1} in K_{i+1} (roundoff can leave x_i a hair outside
-K_i, where no v is admissible; unclipped, the excess grew geometrically). If x_0 = 0 is not
+K_i, where no v is admissible; unclipped, the excess grew geometrically). If x_0 is not
 controllable the limits are infeasible on this path ([PajakPajak] eq. (30) generalized) and the
 first sample where a controllable set is empty is reported. The geometric path and hence the
 clearance are those of the unconstrained plan.
 
+Between samples the limits hold only approximately: x is linear in sigma on an interval while
+q', q'' and the effort coefficients change; tests/time_scaling/test_rates.py measures the
+excess on a dense resampling.
+
 :func:`time_optimal_scaling` runs both passes compiled (:mod:`.passes`, about
-0.7 us a sample); :func:`reference_scaling` is the plain NumPy version it reproduces.
+1 us a sample with 5 rows); :func:`reference_scaling` is the plain NumPy version it reproduces.
 """
 
 from __future__ import annotations
@@ -38,12 +49,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.time_scaling import passes
 from mmplan.time_scaling.passes import BIG, TOL
-
-Array = NDArray[np.float64]
 
 
 def _lp2(A: Array, b: Array, c: Array) -> Array | None:
@@ -70,8 +79,9 @@ class Scaling:
     Attributes:
         x: Squared time rate w^2 at each sample (N,). v: dx/dsigma on each interval, (N,)
             (0 at the last sample).
-        t: Real time of each sample (N,). feasible: x_0 = 0 was controllable.
-        first_empty: First sample with an empty controllable set (None when feasible).
+        t: Real time of each sample (N,). feasible: x_0 was controllable.
+        first_empty: Last sample (counting backwards from the end, the first found) with an
+            empty controllable set (None when every set is non-empty).
     """
 
     x: Array
@@ -106,20 +116,28 @@ def _interval_rows(
 
 
 def reference_scaling(
-    sigma: Array, alpha: Array, beta: Array, g: Array, lo: Array, hi: Array, w_max: float = 1.0
+    sigma: Array,
+    alpha: Array,
+    beta: Array,
+    g: Array,
+    lo: Array,
+    hi: Array,
+    w_max: float = 1.0,
+    x_upper: Array | None = None,
+    x_start: float | None = 0.0,
 ) -> Scaling:
     """Plain NumPy TOPP-RA (vertex-enumeration LPs, one interval at a time): the reference
     that :func:`time_optimal_scaling` reproduces (same arguments; about 0.3 ms a sample)."""
     N = len(sigma)
     delta = np.diff(sigma)
-    x_max = w_max * w_max
-    box = (
-        np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
-        np.array([x_max, 0.0, 1e6, 1e6]),
-    )
+    x_up = _upper(N, w_max, x_upper)
     K_lo, K_hi = np.zeros(N), np.zeros(N)
     first_empty: int | None = None
     for i in range(N - 1, -1, -1):
+        box = (
+            np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
+            np.array([x_up[i], 0.0, 1e6, 1e6]),
+        )
         if i == N - 1:
             A, b = _rows(alpha[i], beta[i], g[i], lo, hi)
             A, b = np.vstack([A, box[0]]), np.concatenate([b, box[1]])
@@ -134,8 +152,9 @@ def reference_scaling(
             first_empty = i
             break
         K_hi[i], K_lo[i] = top[0], max(bottom[0], 0.0)
-    feasible = first_empty is None and K_lo[0] <= 1e-12
+    x0, feasible = _start(x_start, K_lo[0], K_hi[0], first_empty)
     x, v = np.zeros(N), np.zeros(N)
+    x[0] = x0 if feasible else 0.0
     for i in range(N - 1):
         if not feasible:
             break
@@ -154,9 +173,36 @@ def reference_scaling(
         # without the clip into K_{i+1} the excess grew ~1.3x a step (8e-3 N m over the
         # limit after 67 steps on a seeded random problem, tests/time_scaling/test_topp.py).
         x_next = np.clip(x[i] + v[i] * delta[i], K_lo[i + 1], K_hi[i + 1])
-        x[i + 1] = float(np.clip(x_next, 0.0, x_max))
+        x[i + 1] = float(np.clip(x_next, 0.0, x_up[i + 1]))
         v[i] = (x[i + 1] - x[i]) / delta[i]
     return Scaling(x, v, _times(x, delta), feasible, first_empty)
+
+
+def _upper(N: int, w_max: float, x_upper: Array | None) -> Array:
+    """Per-sample bound of x: w_max^2 and ``x_upper`` (N,), finite (ValueError otherwise)."""
+    up = np.full(N, float(w_max) ** 2)
+    if x_upper is not None:
+        given = np.asarray(x_upper, dtype=float)
+        if given.shape != (N,) or np.isnan(given).any():
+            raise ValueError(f"x_upper: expected {N} values (not NaN), got shape {given.shape}")
+        up = np.minimum(up, given)
+    if not (np.all(np.isfinite(up)) and np.all(up >= 0.0)):
+        raise ValueError(
+            "the time rate is unbounded (or x_upper < 0) at some sample: give a finite w_max"
+        )
+    return up
+
+
+def _start(
+    x_start: float | None, k_lo: float, k_hi: float, first_empty: int | None
+) -> tuple[float, bool]:
+    """x_0 and whether it is controllable: ``x_start`` (None: the largest controllable,
+    K_hi of sample 0) must lie in [K_lo, K_hi] of sample 0 (x_start = 0 needs K_lo <= 1e-12,
+    the slack of the original rest start)."""
+    if first_empty is not None:
+        return 0.0, False
+    x0 = k_hi if x_start is None else float(x_start)
+    return x0, bool(k_lo <= x0 + 1e-12 and x0 <= k_hi + TOL * (1.0 + abs(k_hi)))
 
 
 def _times(x: Array, delta: Array) -> Array:
@@ -181,7 +227,15 @@ def _last_set(a: Array, c_lo: Array, c_hi: Array, x_max: float) -> tuple[float, 
 
 
 def time_optimal_scaling(
-    sigma: Array, alpha: Array, beta: Array, g: Array, lo: Array, hi: Array, w_max: float = 1.0
+    sigma: Array,
+    alpha: Array,
+    beta: Array,
+    g: Array,
+    lo: Array,
+    hi: Array,
+    w_max: float = 1.0,
+    x_upper: Array | None = None,
+    x_start: float | None = 0.0,
 ) -> Scaling:
     """TOPP-RA on the sampled path (module docstring), with compiled passes.
 
@@ -192,34 +246,41 @@ def time_optimal_scaling(
 
     Args:
         sigma: Path parameter at the samples (N,), increasing.
-        alpha, beta, g: Effort coefficients (N, n_act).
-        lo, hi: Safety zone (n_act,); infinite entries are no limit.
-        w_max: Largest time rate (1: never faster than the unconstrained generator).
+        alpha, beta, g: Row coefficients (N, n): efforts, accelerations (:mod:`.rates`).
+        lo, hi: Zone of each row (n,); infinite entries are no limit.
+        w_max: Largest time rate (1: never faster than the path's own parametrization).
+        x_upper: Further bound of x = w^2 at each sample (N,) (velocity limits); inf: none.
+        x_start: x at sample 0 (0: from rest; None: the largest controllable value, for a
+            path whose first q' is zero).
+
+    Raises:
+        ValueError: x is unbounded at some sample (infinite w_max and x_upper).
     """
     sigma = np.ascontiguousarray(sigma, dtype=float)
     alpha, beta, g = (np.ascontiguousarray(m, dtype=float) for m in (alpha, beta, g))
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     N = len(alpha)
     if N < 2:
-        return reference_scaling(sigma, alpha, beta, g, lo, hi, w_max)
+        return reference_scaling(sigma, alpha, beta, g, lo, hi, w_max, x_upper, x_start)
     delta = np.diff(sigma)
-    x_max = w_max * w_max
+    x_up = np.ascontiguousarray(_upper(N, w_max, x_upper))
     zone_lo = np.where(np.isfinite(lo), lo, -BIG)
     zone_hi = np.where(np.isfinite(hi), hi, BIG)
-    zone = np.concatenate([[x_max], zone_lo, zone_hi])
+    zone = np.concatenate([zone_lo, zone_hi])
     K_lo, K_hi = np.zeros(N), np.zeros(N)
     first_empty: int | None = N - 1
-    last = _last_set(alpha[-1], zone_lo - g[-1], zone_hi - g[-1], x_max)
+    last = _last_set(alpha[-1], zone_lo - g[-1], zone_hi - g[-1], float(x_up[-1]))
     if last is not None:
         K_lo[-1], K_hi[-1] = last
-        lo_sets, hi_sets, empty = passes.backward(alpha, beta, g, sigma, zone, last)
+        lo_sets, hi_sets, empty = passes.backward(alpha, beta, g, sigma, x_up, zone, last)
         where = np.flatnonzero(empty > 0.5)
         first_empty = int(where[-1]) if len(where) else None
         start = 0 if first_empty is None else first_empty + 1
         K_lo[start:-1], K_hi[start:-1] = lo_sets[start:], hi_sets[start:]
-    feasible = first_empty is None and K_lo[0] <= 1e-12
+    x0, feasible = _start(x_start, K_lo[0], K_hi[0], first_empty)
     x, v = np.zeros(N), np.zeros(N)
     if feasible:
-        x[1:] = passes.forward(alpha, beta, g, sigma, zone, K_lo, K_hi)
+        x[0] = x0
+        x[1:] = passes.forward(alpha, beta, g, sigma, x_up, zone, K_lo, K_hi, x0)
         v[:-1] = (x[1:] - x[:-1]) / delta
     return Scaling(x, v, _times(x, delta), feasible, first_empty)

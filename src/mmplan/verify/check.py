@@ -27,15 +27,13 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.problem import Problem
 from mmplan.robot import Robot
 from mmplan.task import DrawSegment, Task, TrackPath, completion_time
 from mmplan.trajectory import Trajectory
-
-Array = NDArray[np.float64]
 
 EE_TOL = 1e-6  # [m]
 LIMIT_TOL = 1e-9  # [rad or m]

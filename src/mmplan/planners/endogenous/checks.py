@@ -14,9 +14,9 @@ import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.stats import qmc
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.planners.endogenous.model import ResolvedBound
 from mmplan.problem import Problem
@@ -26,7 +26,6 @@ from mmplan.task import ReachPoint
 if TYPE_CHECKING:
     from mmplan.planners.endogenous.settings import EndogenousSettings
 
-Array = NDArray[np.float64]
 
 #: Finite stand-in for infinite arm joint limits when sampling the vertical reach.
 _WIDE = 10.0

@@ -40,12 +40,10 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
 from mmplan.robot.robot import Robot
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

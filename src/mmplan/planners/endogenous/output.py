@@ -26,14 +26,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.endogenous.model import EndogenousModel, ResolvedBound
 from mmplan.robot.robot import Robot
 from mmplan.robot.tree import JointKind
 from mmplan.trajectory import Trajectory
-
-Array = NDArray[np.float64]
 
 
 class ArmBox:

@@ -45,8 +45,8 @@ bound - 1 for symmetric bounds; negative inside), ``backend`` ("c" or "vm").
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.endogenous.cache import get_model
@@ -57,8 +57,6 @@ from mmplan.planners.endogenous.settings import EndogenousSettings
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint
 from mmplan.trajectory import Solution, Status
-
-Array = NDArray[np.float64]
 
 
 @register

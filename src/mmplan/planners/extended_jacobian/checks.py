@@ -11,14 +11,13 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from mmplan.arrays import Array
 from mmplan.compile.model_cache import ModelCache
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions, ObstacleTerm
 from mmplan.robot.robot import Robot
-
-Array = NDArray[np.float64]
 
 #: Below this manipulability the start counts as singular.
 MU_MIN = 1e-4

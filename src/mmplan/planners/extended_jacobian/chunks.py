@@ -18,14 +18,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
 from mmplan.planners.extended_jacobian.torque import feedback as ej_feedback
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -34,16 +34,14 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian.structure import (
     reduced_manipulability,
     structured_transversality,
 )
 from mmplan.robot.robot import Robot
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -13,11 +13,9 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.step import CHUNK
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

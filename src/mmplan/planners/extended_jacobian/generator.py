@@ -40,7 +40,6 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
 from mmplan.compile import codegen as cg
 from mmplan.planners.extended_jacobian import near_goal as ej_nearpush
@@ -65,8 +64,6 @@ from mmplan.planners.extended_jacobian.step import (
 )
 from mmplan.planners.extended_jacobian.structure import structured_solve
 from mmplan.robot.robot import Robot
-
-Array = NDArray[np.float64]
 
 #: C compiler flags of the generated generator (measured: -O2 about 2x faster than -O1 here,
 #: -O3 -ffast-math no faster and 3x slower to compile).

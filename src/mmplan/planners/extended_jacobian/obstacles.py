@@ -33,11 +33,9 @@ from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.robot.robot import Robot
-
-Array = NDArray[np.float64]
 
 #: Largest number of collision points in one culled block (:func:`point_groups`).
 GROUP_SIZE = 10

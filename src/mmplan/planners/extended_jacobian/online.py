@@ -17,15 +17,14 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import feedback as ej_feedback
 from mmplan.planners.extended_jacobian.torque.decision import decide
-
-Array = NDArray[np.float64]
 
 
 class OnlineGenerator:

@@ -39,16 +39,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import chunks as ej_fastpath
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
 from mmplan.planners.extended_jacobian.torque.decision import decide
 from mmplan.trajectory import Status
-
-Array = NDArray[np.float64]
 
 
 @dataclass

@@ -11,9 +11,9 @@ verdict looks it up by sample index.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-Array = NDArray[np.float64]
+from mmplan.arrays import Array
 
 KEYS = ("t", "q", "dq", "ddq", "tau", "u", "s", "err")
 #: Optional keys: [Tm dq, Tg] of the effort split at each sample (time mode, time_scaling.py).

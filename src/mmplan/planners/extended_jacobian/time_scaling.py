@@ -18,15 +18,13 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
 from mmplan.time_scaling.topp import time_optimal_scaling
 from mmplan.trajectory import Status
-
-Array = NDArray[np.float64]
 
 
 def rollout_time_scaled(

@@ -24,13 +24,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.arrays import Array, BoolArray
 from mmplan.errors import InputError
 from mmplan.robot.library import base_6dof_ik as puma_ik
 from mmplan.robot.library.base_6dof_ik import PumaGeometry
 from mmplan.task import DrawSegment
-
-Array = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 
 
 @dataclass(frozen=True)

@@ -28,9 +28,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import fft as sp_fft
 
-Array = NDArray[np.float64]
+from mmplan.arrays import Array, BoolArray
+
 IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 
 #: Exact minimum manipulability of base paths (M, L, 2) [m] -> (M,) [m^3].
 ExactCheck = Callable[[Array], Array]

@@ -8,8 +8,8 @@ robot model's FK) and packs the data of [Nagatani]'s figures 3, 4, 5 and 8 as ar
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array, BoolArray
 from mmplan.planners.manipulability_area import grid as lma_grid
 from mmplan.planners.manipulability_area import path as lma_path
 from mmplan.problem import Problem
@@ -17,8 +17,6 @@ from mmplan.robot.library import base_6dof_ik as puma_ik
 from mmplan.robot.library.base_6dof_ik import PumaGeometry
 from mmplan.trajectory import Solution, Status, Trajectory
 
-Array = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 
 def _ee(problem: Problem, q: Array) -> Array:
     """End-effector positions from the robot model's FK, (N, 3)."""

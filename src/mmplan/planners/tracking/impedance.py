@@ -31,8 +31,8 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.planners.tracking.potentials import min_clearance_sym, sphere_distances
 from mmplan.planners.tracking.rollout import compile_step
@@ -40,8 +40,6 @@ from mmplan.planners.tracking.settings import ImpedanceSettings
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
-
-Array = NDArray[np.float64]
 
 
 def obstacle_force_magnitude(d: ca.SX, d_min: float, d_max: float, b_obs: float) -> ca.SX:

@@ -17,7 +17,8 @@ from mmplan.planners.tracking.impedance import VirtualImpedance, platform_distan
 from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
 from mmplan.planners.tracking.result import track
 from mmplan.planners.tracking.settings import ImpedanceSettings, PseudoinverseSettings
-from mmplan.problem import Array, Problem, Progress
+from mmplan.arrays import Array
+from mmplan.problem import Problem, Progress
 from mmplan.task import TrackPath
 from mmplan.trajectory import Solution
 

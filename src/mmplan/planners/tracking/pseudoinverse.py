@@ -29,16 +29,14 @@ from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.planners.tracking.potentials import joint_limit_potential, obstacle_potential
 from mmplan.planners.tracking.rollout import compile_step
 from mmplan.planners.tracking.settings import PseudoinverseSettings
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
-
-Array = NDArray[np.float64]
 
 
 def coordinate_weights(robot: Robot, platform_range: Sequence[float] | None) -> Array:

@@ -12,8 +12,8 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.tracking.rollout import Rollout, StopRules, rollout
 from mmplan.planners.tracking.settings import TrackingSettings
 from mmplan.problem import Problem, Progress
@@ -21,8 +21,6 @@ from mmplan.robot.robot import Robot
 from mmplan.scene.scene import Scene
 from mmplan.task import TrackPath, completion_time
 from mmplan.trajectory import Solution, Status, Trajectory
-
-Array = NDArray[np.float64]
 
 
 def differentiate(dq: Array, dt: float) -> Array:

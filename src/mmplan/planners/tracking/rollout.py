@@ -31,14 +31,12 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.tracking.settings import TrackingSettings
 from mmplan.problem import Progress
 from mmplan.robot.robot import Robot
 from mmplan.trajectory import Status
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,9 @@ Rx(alpha_i), which becomes the origin of joint i+1. Joint limits are Corke's qli
 nominal small boxes ([Nagatani] is kinematic). Manipulability is [Nagatani]'s w = sqrt(det(J
 J^T)) of the 6x6 tool Jacobian of the arm (``manipulability="pose"``). The base is
 omnidirectional in the model ([Nagatani] plans its path only).
+Velocity and acceleration limits: off. Corke's PUMA 560 model (the source of the DH
+parameters and joint ranges) lists no joint speed limits, the arm is scaled by 0.4 and the
+base is not specified, so no published number applies.
 """
 
 from __future__ import annotations
@@ -17,9 +20,16 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, Omnidirectional
 from mmplan.robot.collision import points_on_segment
-from mmplan.robot.limits import Limits
+from mmplan.robot.limits import Limits, RateLimits
 from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
+
+#: Source of the (absent) velocity and acceleration limits.
+RATE_SOURCE = (
+    "off: Corke's PUMA 560 model (source of the DH parameters and qlim) gives no joint speed "
+    "limits, the arm is scaled by 0.4 and the base is not specified ([Nagatani]); the "
+    "manipulability-area plan is timed by the segment parameter, not in seconds"
+)
 
 SCALE = 0.4
 SHOULDER_HEIGHT = 0.45
@@ -85,6 +95,7 @@ def build() -> Robot:
         joint_max=np.deg2rad([hi for _, hi in QLIM_DEG]),
         torque_min=np.full(9, -np.inf),
         torque_max=np.full(9, np.inf),
+        rates=RateLimits(sources={"*": RATE_SOURCE}),
     )
     return Robot(
         "base-6dof",

@@ -42,13 +42,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array, BoolArray
 from mmplan.errors import ModelError
 from mmplan.robot.library import base_6dof
-
-Array = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 
 _PUMA_ALPHA = (np.pi / 2, 0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, 0.0)
 

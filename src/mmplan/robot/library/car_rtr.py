@@ -8,6 +8,7 @@ x2 vertical prismatic, x3 rotation raising the last link, so that
 l2 = l3 = 0.5 (not printed; our choice, docs/conventions.md). The paper has no masses or limits:
 nominal masses (platform 10 kg box, links 1 kg rods and discs) serve only for dynamics, and joint
 limits are wide (+-2 pi for rotations, [-5, 5] m for x2) so that bounds come from the scenario.
+Velocity and acceleration limits: off (no data sheet; no real machine behind the model).
 """
 
 from __future__ import annotations
@@ -16,9 +17,12 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, KinematicCar
 from mmplan.robot.collision import points_on_box, points_on_segment
-from mmplan.robot.limits import Limits
+from mmplan.robot.limits import Limits, RateLimits
 from mmplan.robot.robot import EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
+
+#: Source of the (absent) velocity and acceleration limits.
+RATE_SOURCE = "no data sheet: off (a kinematic car of [JaniakTchon], no real machine behind it)"
 
 LENGTH = 1.0
 L2 = L3 = 0.5
@@ -55,6 +59,7 @@ def build() -> Robot:
         joint_max=np.array([two_pi, 5.0, two_pi]),
         torque_min=np.full(5, -np.inf),
         torque_max=np.full(5, np.inf),
+        rates=RateLimits(sources={"*": RATE_SOURCE}),
     )
     return Robot(
         "car-rtr",

@@ -7,6 +7,7 @@ with l1 = 0.6, l2 = 0.4, l3 = 0.3 (section 2 prints no numbers; we reuse section
 Collision model (our reading, docs/tracking.md): the platform as two discs of radius 0.2 m, at A and
 0.3 m ahead; arm links as points. Masses are nominal ([AbdessemedDjebrani] is kinematic).
 Arm limits (not printed): theta1 +-pi, theta2 [-pi/2, pi/2], theta3 [-2.5, 2.5] rad.
+Velocity and acceleration limits: off (no data sheet; no real machine named).
 """
 
 from __future__ import annotations
@@ -15,9 +16,14 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, UnicycleDrive
 from mmplan.robot.collision import points_on_segment
-from mmplan.robot.limits import Limits
+from mmplan.robot.limits import Limits, RateLimits
 from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
+
+#: Source of the (absent) velocity and acceleration limits.
+RATE_SOURCE = (
+    "no data sheet: off ([AbdessemedDjebrani]'s robot is kinematic, no real machine named)"
+)
 
 L1, L2, L3 = 0.6, 0.4, 0.3
 DISC_RADIUS = 0.2
@@ -73,6 +79,7 @@ def build() -> Robot:
         joint_max=np.array([np.pi, np.pi / 2, 2.5]),
         torque_min=np.full(5, -np.inf),
         torque_max=np.full(5, np.inf),
+        rates=RateLimits(sources={"*": RATE_SOURCE}),
     )
     return Robot(
         "diffdrive-3dof",

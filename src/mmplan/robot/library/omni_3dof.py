@@ -6,6 +6,7 @@ q = (x, y, theta, qa1, qa2, qa3);
 with a1 = 0.6, a2 = 0.4, a3 = 0.3, mounting offset (a, b) = (0.2, 0), platform height z = 0.
 Masses are nominal ([AbdessemedDjebrani] is kinematic). Arm limits (not printed): qa1 +-pi,
 qa2 [-pi, pi/2], qa3 [-2.5, 2.5] rad.
+Velocity and acceleration limits: off (no data sheet; no real machine named).
 """
 
 from __future__ import annotations
@@ -14,9 +15,14 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, Omnidirectional
 from mmplan.robot.collision import points_on_segment
-from mmplan.robot.limits import Limits
+from mmplan.robot.limits import Limits, RateLimits
 from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
+
+#: Source of the (absent) velocity and acceleration limits.
+RATE_SOURCE = (
+    "no data sheet: off ([AbdessemedDjebrani]'s robot is kinematic, no real machine named)"
+)
 
 A1, A2, A3 = 0.6, 0.4, 0.3
 MOUNT = (0.2, 0.0)
@@ -70,6 +76,7 @@ def build() -> Robot:
         joint_max=np.array([np.pi, np.pi / 2, 2.5]),
         torque_min=np.full(6, -np.inf),
         torque_max=np.full(6, np.inf),
+        rates=RateLimits(sources={"*": RATE_SOURCE}),
     )
     return Robot(
         "omni-3dof",

@@ -13,6 +13,12 @@ Inertias are not printed (our choice, docs/conventions.md): the platform is a un
 are thin uniform discs of 1.4 kg, r = 0.05; the arm base (0.961 kg) is a point mass at the
 mounting point on top of the platform; links are slender rods with the centre of mass at
 mid-length (1.39 kg over the 0.03 m offset, 1.318 kg over 0.16 m, 2.496 kg over 0.34 m).
+
+Rate limits (:mod:`.youbot_rates`, sources there and in docs/conventions.md "Limits"): platform
+speed 0.8 m/s (KUKA youBot data sheet), wheels 0.8 / r = 16 rad/s and yaw rate 0.8 / d = 5 rad/s
+(derived), arm joints pi/2 rad/s (youBot arm URDF, 90 deg/s); platform acceleration 1.0 m/s^2
+(an assumption: no published value), wheels 20 rad/s^2 and yaw 6.25 rad/s^2 derived from it;
+arm joint accelerations off.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ import numpy as np
 
 from mmplan.robot.bases import PLATFORM, DifferentialDrive
 from mmplan.robot.collision import points_on_box, points_on_segment
+from mmplan.robot.library.youbot_rates import youbot_rate_limits
 from mmplan.robot.limits import Limits
 from mmplan.robot.robot import EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
@@ -86,6 +93,7 @@ def build() -> Robot:
         joint_max=np.array([169.0, 90.0, 145.0]) * DEG,
         torque_min=np.array([-1.5, -1.5, -1.0, -10.0, -5.0]),
         torque_max=np.array([1.5, 1.5, 1.0, 0.0, 0.0]),
+        rates=youbot_rate_limits(WHEEL_RADIUS, HALF_TRACK, ("phi1", "phi2"), ("q1", "q2", "q3")),
     )
     return Robot(
         "youbot-3r",

@@ -15,6 +15,11 @@ Joint limits are not printed in [Pajak]: we use the youBot's published ranges
 q1 +-169 deg, q2 [-65, 90] deg, q3 [-151, 146] deg, q4 +-102.5 deg.
 Wheel labels follow [PajakPajak] ([Pajak] eq. (25) swaps them; either way, see
 docs/conventions.md).
+Rate limits (:mod:`.youbot_rates`, sources there and in docs/conventions.md "Limits"): platform
+speed 0.8 m/s (KUKA youBot data sheet), wheels 0.8 / r = 16 rad/s and yaw rate 0.8 / d = 5.063
+rad/s (derived), arm joints pi/2 rad/s (youBot arm URDF, 90 deg/s); platform acceleration
+1.0 m/s^2 (an assumption: no published value), wheels 20 rad/s^2 and yaw 6.329 rad/s^2 derived
+from it; arm joint accelerations off.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import numpy as np
 from mmplan.robot.bases import PLATFORM, DifferentialDrive
 from mmplan.robot.collision import points_on_box, points_on_segment
 from mmplan.robot.dynamics import Friction
+from mmplan.robot.library.youbot_rates import youbot_rate_limits
 from mmplan.robot.limits import Limits
 from mmplan.robot.robot import EndEffector, Robot
 from mmplan.robot.tree import Body, Inertial, Joint, JointKind
@@ -101,6 +107,8 @@ def build(friction: bool = False) -> Robot:
         joint_max=np.array([169.0, 90.0, 146.0, 102.5]) * DEG,
         torque_min=np.full(6, -inf),
         torque_max=np.full(6, inf),
+        rates=youbot_rate_limits(WHEEL_RADIUS, HALF_TRACK, ("phi1", "phi2"),
+                                 ("q1", "q2", "q3", "q4")),
     )
     wheel_friction = Friction(viscous=0.045, coulomb=0.2)
     return Robot(

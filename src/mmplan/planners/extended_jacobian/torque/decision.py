@@ -11,14 +11,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-from numpy.typing import NDArray
-
+from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.functions import Terms
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -18,11 +18,9 @@ from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
-
-Array = NDArray[np.float64]
 
 _TINY = 1e-12
 _INF = float("inf")

@@ -16,17 +16,13 @@ from collections.abc import Callable
 from pathlib import Path
 
 import casadi as ca
-import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
 from mmplan.planners.extended_jacobian.generator import CFLAGS, GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import decision_symbolic as ej_decision_sym
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
-
-Array = NDArray[np.float64]
-
 
 _Args = tuple[tuple[Array, Array], float, bool, bool, vc.Growth, tuple[float, float, float]]
 

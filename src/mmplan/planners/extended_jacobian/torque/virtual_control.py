@@ -31,9 +31,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
-from numpy.typing import NDArray
 
-Array = NDArray[np.float64]
+from mmplan.arrays import Array
 
 _TINY = 1e-12
 

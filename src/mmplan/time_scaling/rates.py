@@ -1,0 +1,262 @@
+r"""Velocity and acceleration limits of a robot: as time-scaling constraints along a path, and
+as a verdict on a sampled trajectory.
+
+The limited quantities (:class:`Quantity`) come from :class:`~mmplan.robot.limits.RateLimits`:
+``|dq_j|`` and ``|ddq_j|`` of named coordinates, the platform's planar speed ``|(dx, dy)|``,
+its yaw rate ``|dtheta|`` and the two accelerations (platform coordinates x, y, theta first, as
+every built-in platform has them). Along a path q(sigma) traversed at the time rate
+w = dsigma/dt, with x = w^2 and v = dx/dsigma (:mod:`.topp`):
+
+.. math::
+
+    \dot q = w\,q', \qquad \ddot q = x\,q'' + \tfrac12 v\,q'.
+
+* A velocity limit bounds x alone, exactly: :math:`|q'_j|\sqrt x \le v_j \iff
+  x \le v_j^2 / q_j'^2`, and :math:`|(x', y')|\sqrt x \le v \iff x \le v^2/(x'^2 + y'^2)`
+  (``x_upper``; no bound where the path does not move the quantity).
+* A coordinate's acceleration limit is the exact row :math:`-a_j \le q''_j x + \tfrac12 q'_j v
+  \le a_j` (alpha = q'', beta = q', g = 0 in the form of :mod:`.topp`).
+* The planar acceleration limit :math:`|(\ddot x, \ddot y)| \le a` is not linear. It is
+  replaced by the regular polygon of :data:`POLYGON_SIDES` sides inscribed in the circle of
+  radius a: the rows :math:`|n_k \cdot (\ddot x, \ddot y)| \le a \cos(\pi/K)` for the
+  K/2 normals :math:`n_k = (\cos 2\pi k/K, \sin 2\pi k/K)`. Its vertices lie on the circle,
+  so the true norm never exceeds a where the rows hold; it gives away at most
+  :math:`1 - \cos(\pi/K)` of the limit (3.4 % for K = 12) in the directions between two
+  vertices.
+
+The rows hold at the samples (both ends of every interval); between samples see
+tests/time_scaling/test_rates.py. :meth:`RateModel.first_violation` judges sampled dq, ddq
+(the planners' verdict; the independent checker has its own).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+
+from mmplan.arrays import Array
+from mmplan.robot.limits import RateLimits
+
+if TYPE_CHECKING:
+    from mmplan.robot.robot import Robot
+
+
+#: Sides K of the polygon that replaces the planar acceleration circle (K/2 two-sided rows).
+POLYGON_SIDES = 12
+#: Relative slack of the sample verdict (rounding of sqrt(x) q' against the bound).
+REL_TOL = 1e-9
+
+Kind = Literal["velocity", "acceleration"]
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One limited quantity: |dq_j| or |ddq_j| (one index) or a planar norm (two indices)."""
+
+    label: str
+    kind: Kind
+    limit: float
+    unit: str
+    index: tuple[int, ...]
+
+    def values(self, dq: Array, ddq: Array) -> Array:
+        """The quantity at every sample (N,) of dq, ddq (N, n)."""
+        m = dq if self.kind == "velocity" else ddq
+        if len(self.index) == 1:
+            return np.asarray(np.abs(m[:, self.index[0]]), dtype=float)
+        return np.asarray(np.hypot(m[:, self.index[0]], m[:, self.index[1]]), dtype=float)
+
+
+@dataclass(frozen=True)
+class RateViolation:
+    """The first sample at which a quantity exceeds its limit."""
+
+    quantity: Quantity
+    value: float
+    t: float
+    worst: float
+    worst_t: float
+    samples: int
+
+    @property
+    def message(self) -> str:
+        """One line: what needs how much, when, against which limit."""
+        q = self.quantity
+        text = (
+            f"{q.label} needs {self.value:.3g} {q.unit} at t = {self.t:.2f} s, "
+            f"limit {q.limit:.3g}"
+        )
+        if self.samples > 1:
+            text += f" ({self.samples} samples, peak {self.worst:.3g} at t = {self.worst_t:.2f} s)"
+        return text
+
+
+@dataclass(frozen=True)
+class PathRates:
+    """Rate limits along a sampled path as time-scaling input (:func:`.topp.time_optimal_scaling`).
+
+    Attributes:
+        x_upper: Bound of x = w^2 at each sample (N,) from the velocity limits (inf: none).
+        alpha, beta, g: Acceleration rows (N, m) in the form of :mod:`.topp`.
+        lo, hi: Their bounds (m,).
+        labels: What each row limits (m,).
+    """
+
+    x_upper: Array
+    alpha: Array
+    beta: Array
+    g: Array
+    lo: Array
+    hi: Array
+    labels: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class RateModel:
+    """The limited quantities of a robot (:meth:`of`) or of named coordinates (:meth:`build`)."""
+
+    coordinates: tuple[str, ...]
+    quantities: tuple[Quantity, ...]
+
+    @classmethod
+    def of(cls, robot: Robot) -> RateModel:
+        """The rate limits ``robot.limits.rates`` on ``robot``'s coordinates."""
+        from mmplan.robot.tree import JointKind
+
+        linear = {j.coordinate for j in robot.tree.joints if j.kind is JointKind.PRISMATIC}
+        planar = (0, 1, 2) if robot.n_platform >= 3 else None
+        return cls.build(robot.coordinates, robot.limits.rates, planar,
+                         {c for c in linear if c is not None})  # fmt: skip
+
+    @classmethod
+    def build(
+        cls,
+        coordinates: Sequence[str],
+        rates: RateLimits,
+        planar: tuple[int, int, int] | None = None,
+        linear: Collection[str] = (),
+    ) -> RateModel:
+        """Quantities of ``rates`` (finite limits only) on ``coordinates``.
+
+        Args:
+            coordinates: Coordinate names in q order.
+            rates: The limits (names not in ``coordinates`` are ignored).
+            planar: Indices of the platform's x, y and heading (None: no platform limits).
+            linear: Coordinates measured in m (the others in rad).
+        """
+        names = tuple(coordinates)
+        planar_names = {names[i] for i in planar} if planar is not None else set()
+        out: list[Quantity] = []
+        for kind, bounds, suffix in (
+            ("velocity", rates.velocity_bounds(names), "/s"),
+            ("acceleration", rates.acceleration_bounds(names), "/s^2"),
+        ):
+            for j, name in enumerate(names):
+                if math.isfinite(bounds[j]):
+                    label = f"{'coordinate' if name in planar_names else 'joint'} {name}"
+                    unit = ("m" if name in linear else "rad") + suffix
+                    out.append(Quantity(label, kind, float(bounds[j]), unit, (j,)))  # type: ignore[arg-type]
+        if planar is not None:
+            px, py, yaw = planar
+            for label, kind, limit, unit, index in (
+                ("platform speed", "velocity", rates.platform_speed, "m/s", (px, py)),
+                ("platform yaw rate", "velocity", rates.platform_yaw_rate, "rad/s", (yaw,)),
+                ("platform acceleration", "acceleration", rates.platform_acceleration,
+                 "m/s^2", (px, py)),
+                ("platform yaw acceleration", "acceleration", rates.platform_yaw_acceleration,
+                 "rad/s^2", (yaw,)),
+            ):  # fmt: skip
+                if math.isfinite(limit):
+                    out.append(Quantity(label, kind, float(limit), unit, index))  # type: ignore[arg-type]
+        return cls(names, tuple(out))
+
+    @property
+    def any(self) -> bool:
+        """True when some quantity is limited."""
+        return bool(self.quantities)
+
+    @property
+    def row_count(self) -> int:
+        """Acceleration rows of :meth:`path_rows` (a planar norm takes POLYGON_SIDES / 2)."""
+        return sum(
+            (POLYGON_SIDES // 2 if len(q.index) == 2 else 1)
+            for q in self.quantities
+            if q.kind == "acceleration"
+        )
+
+    def path_rows(self, dq_ds: Array, ddq_ds2: Array) -> PathRates:
+        """Time-scaling constraints along a path with q' = ``dq_ds`` and q'' = ``ddq_ds2``
+        (N, n) (module docstring)."""
+        N = len(dq_ds)
+        x_upper = np.full(N, np.inf)
+        alpha, beta, bound, labels = [], [], [], []
+        for q in self.quantities:
+            if q.kind == "velocity":
+                speed2 = np.sum(np.square(dq_ds[:, list(q.index)]), axis=1)
+                with np.errstate(divide="ignore"):
+                    cap = np.where(speed2 > 0.0, q.limit**2 / speed2, np.inf)
+                x_upper = np.minimum(x_upper, cap)
+            elif len(q.index) == 1:
+                alpha.append(ddq_ds2[:, q.index[0]])
+                beta.append(dq_ds[:, q.index[0]])
+                bound.append(q.limit)
+                labels.append(q.label)
+            else:
+                i, j = q.index
+                for k in range(POLYGON_SIDES // 2):
+                    c, s = math.cos(2 * math.pi * k / POLYGON_SIDES), math.sin(
+                        2 * math.pi * k / POLYGON_SIDES
+                    )
+                    alpha.append(c * ddq_ds2[:, i] + s * ddq_ds2[:, j])
+                    beta.append(c * dq_ds[:, i] + s * dq_ds[:, j])
+                    bound.append(q.limit * math.cos(math.pi / POLYGON_SIDES))
+                    labels.append(f"{q.label} (side {k + 1})")
+        m = len(bound)
+        a = np.column_stack(alpha) if m else np.zeros((N, 0))
+        b = np.column_stack(beta) if m else np.zeros((N, 0))
+        hi = np.asarray(bound, dtype=float)
+        return PathRates(x_upper, a, b, np.zeros((N, m)), -hi, hi, tuple(labels))
+
+    def ratios(self, dq: Array, ddq: Array) -> Array:
+        """value / limit of every quantity at every sample, (N, len(quantities))."""
+        if not self.quantities:
+            return np.zeros((len(dq), 0))
+        return np.column_stack([q.values(dq, ddq) / q.limit for q in self.quantities])
+
+    def first_violation(self, t: Array, dq: Array, ddq: Array) -> RateViolation | None:
+        """The earliest sample at which a quantity exceeds its limit (beyond :data:`REL_TOL`
+        and NaN counting as exceeding), None when every limit holds."""
+        r = self.ratios(dq, ddq)
+        bad = ~(r <= 1.0 + REL_TOL)
+        if not bad.any():
+            return None
+        k = int(np.argmax(bad.any(axis=1)))
+        j = int(np.argmax(bad[k]))
+        q = self.quantities[j]
+        col = np.where(np.isnan(r[:, j]), np.inf, r[:, j])
+        w = int(np.argmax(col))
+        return RateViolation(
+            q,
+            float(r[k, j] * q.limit),
+            float(t[k]),
+            float(col[w] * q.limit),
+            float(t[w]),
+            int(bad[:, j].sum()),
+        )
+
+    def stretch(self, dq: Array, ddq: Array) -> float:
+        """Smallest factor c >= 1 such that the uniform re-timing t -> c t (dq / c, ddq / c^2)
+        keeps every limit: max(1, velocity ratios, sqrt(acceleration ratios)); inf if some
+        limit is zero while its quantity moves (or NaN)."""
+        c = 1.0
+        for q in self.quantities:
+            peak = float(np.max(q.values(dq, ddq), initial=0.0))
+            if np.isnan(peak):
+                return math.inf
+            ratio = peak / q.limit if q.limit > 0 else (math.inf if peak > 0 else 0.0)
+            c = max(c, ratio if q.kind == "velocity" else math.sqrt(ratio))
+        return c
