@@ -38,17 +38,14 @@ Progress = Callable[[float], None] | None
 MAX_STEPS = 2_000_000
 
 
-class PlannerSettings(BaseModel):
-    """Settings every method accepts; a method's model adds its own fields.
+class SettingsModel(BaseModel):
+    """Base of every settings model, nested ones included (e.g. a method's sub-settings).
 
-    Unknown keys are errors (``extra="forbid"``), values are validated on construction.
-    Numeric settings take numbers only (no booleans or strings), and a method with a fixed
-    step ``dt`` is limited to ``t_max / dt <= MAX_STEPS``.
+    Unknown keys are errors (``extra="forbid"``), values are validated on construction and
+    frozen, and a numeric setting takes numbers only (no booleans or strings).
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-    method: str
 
     @field_validator("*", mode="before")
     @classmethod
@@ -64,6 +61,16 @@ class PlannerSettings(BaseModel):
             if isinstance(item, bool | str):
                 raise ValueError(f"expected a number, got {item!r}")
         return value
+
+
+class PlannerSettings(SettingsModel):
+    """Settings every method accepts; a method's model adds its own fields.
+
+    Validation as :class:`SettingsModel`; a method with a fixed step ``dt`` is limited to
+    ``t_max / dt <= MAX_STEPS``.
+    """
+
+    method: str
     t_max: float = Field(
         120.0,
         gt=0,

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
-from mmplan.problem import PlannerSettings
+from mmplan.problem import PlannerSettings, SettingsModel
 
 #: Input ranges (work bounds: a run costs about max_iterations x steps rollouts of
 #: sum(basis_terms) parameters; beyond these the run would hang or overflow).
@@ -28,10 +28,8 @@ MAX_ITERATIONS = 100_000
 MAX_STEPS = 20_000
 
 
-class BoundSetting(BaseModel):
+class BoundSetting(SettingsModel):
     """A state bound ``min <= q[coordinate] <= max`` (platform or arm coordinate)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     coordinate: str
     min: float = Field(strict=True, allow_inf_nan=False)

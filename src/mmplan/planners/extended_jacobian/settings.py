@@ -8,16 +8,14 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 from pydantic_core import PydanticCustomError
 
-from mmplan.problem import PlannerSettings
+from mmplan.problem import PlannerSettings, SettingsModel
 
 
-class VirtualControlSettings(BaseModel):
+class VirtualControlSettings(SettingsModel):
     """Virtual control ([PajakPajak] s.4, [Pajak] s.4)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     enabled: bool | None = Field(
         None, description="None: on when the robot has finite torque limits"

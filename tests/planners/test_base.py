@@ -1,0 +1,71 @@
+"""The planner template (mmplan.planners.base) and the method registry (mmplan.planners)."""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import mmplan
+from mmplan.errors import InputError
+from mmplan.planners import builtin_methods, get_planner, settings_model
+from mmplan.problem import PlannerSettings
+from mmplan.task import LinePath
+
+
+def test_each_method_is_named_once_by_its_settings_model() -> None:
+    for method in builtin_methods():
+        planner = get_planner(method)
+        assert planner.method == method
+        assert planner.settings_model is settings_model(method)
+        assert planner.settings_model.model_fields["method"].default == method
+
+
+def test_settings_of_another_method_are_one_input_error() -> None:
+    """Before the template, the extended-Jacobian planner re-validated foreign settings and
+    raised a 13-error pydantic ValidationError."""
+    problem = mmplan.load_scenario("car-rtr-free").build()
+    with pytest.raises(InputError) as err:
+        get_planner("extended-jacobian")().plan(problem)
+    assert err.value.field == "planner.method" and "\n" not in str(err.value)
+
+
+def test_plain_settings_of_the_right_method_are_validated_by_its_model() -> None:
+    problem = mmplan.load_scenario("car-rtr-free").build()
+    plain = PlannerSettings.model_construct(method="endogenous", t_max=-1.0)
+    with pytest.raises(InputError) as err:
+        get_planner("endogenous")().plan(dataclasses.replace(problem, settings=plain))
+    assert err.value.field.startswith("planner.") and "\n" not in str(err.value)
+
+
+def test_goal_kind_and_start_are_checked_before_solving() -> None:
+    problem = mmplan.load_scenario("car-rtr-free").build()
+    line = LinePath(start=(0.0, 0.0, 1.0), speed=(0.1, 0.0, 0.0), duration=1.0)
+    with pytest.raises(InputError, match="needs a goal position") as err:
+        get_planner("endogenous")().plan(dataclasses.replace(problem, task=line))
+    assert err.value.field == "goal"
+    with pytest.raises(InputError, match="expected 7 values") as err:
+        get_planner("endogenous")().plan(dataclasses.replace(problem, start=np.zeros(3)))
+    assert err.value.field == "start"
+
+
+def test_plan_stamps_method_and_compute_time_and_reports_progress() -> None:
+    problem = mmplan.load_scenario("car-rtr-steer30").build()
+    seen: list[float] = []
+    result = get_planner("endogenous")().plan(problem, progress=seen.append)
+    assert result.planner == "endogenous" and result.compute_time_s > 0
+    assert seen and seen[-1] == 1.0
+
+
+def test_listing_methods_imports_no_planner() -> None:
+    code = (
+        "import sys, mmplan; from mmplan.planners import methods, settings_model; "
+        "methods(); settings_model('extended-jacobian'); "
+        "print([m for m in sys.modules if m.endswith('.planner')])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
