@@ -1,11 +1,14 @@
 """Speed of the time-optimal scaling (time mode): compiled passes vs the NumPy reference.
 
-Coefficients are real: the youbot3r-obstacles-torque plan is run once and the arguments of
-its ``time_optimal_scaling`` call (sigma, alpha, beta, tau_g, zone; 5 actuators) are captured,
-then resampled along sigma to N = 1,250 (10 ms samples of the 12.4 s generator path) and
-N = 12,000. Both implementations run in the same process on the same data; the compiled one
-is the best of several runs (the machine is shared), the reference one run. Also printed:
-the first build (CasADi -> C -> gcc, into an empty cache) and the CasADi-VM fallback.
+Coefficients are real: two plans are run once and the arguments of their first
+``time_optimal_scaling`` call are captured: youbot3r-obstacles-torque-unlimited (the papers'
+robot: sigma, alpha, beta, tau_g, zone of 5 actuators) and youbot3r-obstacles-torque (the
+youBot's rate limits: 14 rows = 5 efforts, 2 wheel accelerations, 6 sides of the platform
+acceleration polygon, the yaw acceleration, and per-sample velocity bounds x_upper). Each is
+resampled along sigma to N = 1,250 (10 ms samples of the 12.4 s generator path) and N = 12,000.
+Both implementations run in the same process on the same data; the compiled one is the best of
+several runs (the machine is shared), the reference one run. Also printed: the first build
+(CasADi -> C -> gcc, into an empty cache) and the CasADi-VM fallback.
 
 Run: ``python bench/bench_topp.py``.
 """
@@ -21,34 +24,36 @@ from typing import Any
 import numpy as np
 
 from mmplan.compile import codegen
-from mmplan.planners.extended_jacobian import time_scaling as ej_timescale
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
 from mmplan.scenario.loader import load_scenario
+from mmplan.time_scaling import retime
 from mmplan.time_scaling.passes import passes
 from mmplan.time_scaling.topp import Scaling, reference_scaling, time_optimal_scaling
 
 REPEAT = 20
+Call = tuple[tuple[Any, ...], dict[str, Any]]
 
 
-def capture() -> tuple[Any, ...]:
-    """Arguments of the scaling call of the youbot3r-obstacles-torque plan."""
-    seen: list[tuple[Any, ...]] = []
+def capture(name: str) -> Call:
+    """Arguments of the first scaling call of the plan of scenario ``name``."""
+    seen: list[Call] = []
 
-    def spy(*args: Any) -> Scaling:
-        seen.append(args)
-        return time_optimal_scaling(*args)
+    def spy(*args: Any, **kwargs: Any) -> Scaling:
+        seen.append((args, kwargs))
+        return time_optimal_scaling(*args, **kwargs)
 
-    original = ej_timescale.time_optimal_scaling
-    ej_timescale.time_optimal_scaling = spy  # type: ignore[assignment]
+    original = retime.time_optimal_scaling
+    retime.time_optimal_scaling = spy  # type: ignore[assignment]
     try:
-        ExtendedJacobian().plan(load_scenario("youbot3r-obstacles-torque").build())
+        ExtendedJacobian().plan(load_scenario(name).build())
     finally:
-        ej_timescale.time_optimal_scaling = original
-    return seen[-1]
+        retime.time_optimal_scaling = original
+    return seen[0]
 
 
-def resample(args: tuple[Any, ...], n: int) -> tuple[Any, ...]:
+def resample(call: Call, n: int) -> Call:
     """The captured problem on n samples equally spaced in sigma (linear interpolation)."""
+    args, kwargs = call
     sigma, alpha, beta, g, lo, hi = args[:6]
     s = np.linspace(sigma[0], sigma[-1], n)
 
@@ -57,7 +62,10 @@ def resample(args: tuple[Any, ...], n: int) -> tuple[Any, ...]:
 
     beta_s = cols(beta)
     beta_s[0] = 0.0  # from rest, as the plan
-    return s, cols(alpha), beta_s, cols(g), lo, hi
+    new = dict(kwargs)
+    if kwargs.get("x_upper") is not None:
+        new["x_upper"] = np.interp(s, sigma, np.minimum(kwargs["x_upper"], 1.0))
+    return (s, cols(alpha), beta_s, cols(g), lo, hi, *args[6:]), new
 
 
 def best(fn: Callable[[], object], repeat: int) -> float:
@@ -87,32 +95,34 @@ def first_build() -> float:
 
 
 def main() -> None:
-    print("capturing the youbot3r-obstacles-torque scaling problem (one plan) ...")
-    real = capture()
-    print(f"captured N = {len(real[0])}, n_act = {real[1].shape[1]}")
-    print(f"first build (C compile, empty cache): {first_build():.2f} s")
-    for n in (1250, 12000):
-        args = resample(real, n)
-        time_optimal_scaling(*args)  # loads the cached library
-        t_new = best(lambda a=args: time_optimal_scaling(*a), REPEAT)  # type: ignore[misc]
-        t0 = time.perf_counter()
-        ref = reference_scaling(*args)
-        t_ref = time.perf_counter() - t0
-        new = time_optimal_scaling(*args)
-        diff = max(float(np.max(np.abs(new.x - ref.x))), float(np.max(np.abs(new.v - ref.v))))
-        print(
-            f"N = {n:6d}: compiled {t_new * 1e3:7.2f} ms ({t_new / n * 1e6:.2f} us/sample), "
-            f"reference {t_ref * 1e3:8.1f} ms, ratio {t_ref / t_new:6.0f}x; "
-            f"feasible {new.feasible}/{ref.feasible}, T {new.t[-1]:.4f} s, "
-            f"max |x, v difference| {diff:.1e}"
-        )
+    print(f"first build (C compile, empty cache, 5 rows): {first_build():.2f} s")
+    for name in ("youbot3r-obstacles-torque-unlimited", "youbot3r-obstacles-torque"):
+        print(f"capturing the {name} scaling problem (one plan) ...")
+        real = capture(name)
+        print(f"captured N = {len(real[0][0])}, rows = {real[0][1].shape[1]}, "
+              f"velocity bounds: {real[1].get('x_upper') is not None}")  # fmt: skip
+        for n in (1250, 12000):
+            args, kw = resample(real, n)
+            time_optimal_scaling(*args, **kw)  # loads (or builds) the cached library
+            t_new = best(lambda a=args, k=kw: time_optimal_scaling(*a, **k), REPEAT)  # type: ignore[misc]
+            t0 = time.perf_counter()
+            ref = reference_scaling(*args, **kw)
+            t_ref = time.perf_counter() - t0
+            new = time_optimal_scaling(*args, **kw)
+            diff = max(float(np.max(np.abs(new.x - ref.x))), float(np.max(np.abs(new.v - ref.v))))
+            print(
+                f"N = {n:6d}: compiled {t_new * 1e3:7.2f} ms ({t_new / n * 1e6:.2f} us/sample), "
+                f"reference {t_ref * 1e3:8.1f} ms, ratio {t_ref / t_new:6.0f}x; "
+                f"feasible {new.feasible}/{ref.feasible}, T {new.t[-1]:.4f} s, "
+                f"max |x, v difference| {diff:.1e}"
+            )
     compiler = codegen.compiler
     codegen.compiler = lambda: None
     passes.cache_clear()
     try:
-        args = resample(real, 1250)
-        t_vm = best(lambda: time_optimal_scaling(*args), 3)
-        print(f"CasADi VM fallback (no compiler), N = 1250: {t_vm * 1e3:.1f} ms")
+        args, kw = resample(capture("youbot3r-obstacles-torque-unlimited"), 1250)
+        t_vm = best(lambda: time_optimal_scaling(*args, **kw), 3)
+        print(f"CasADi VM fallback (no compiler), N = 1250, 5 rows: {t_vm * 1e3:.1f} ms")
     finally:
         codegen.compiler = compiler
         passes.cache_clear()

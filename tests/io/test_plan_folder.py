@@ -27,8 +27,15 @@ from tests.eta_planner import METHOD
 CONTRACT_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
              "final_error_m", "min_clearance_m", "max_joint_limit_violation",
              "max_torque_violation", "max_pfaffian_residual", "manipulability_start",
-             "manipulability_end", "manipulability_min", "compute_time_s", "samples"]
+             "manipulability_end", "manipulability_min", "compute_time_s", "samples",
+             "peak_platform_speed_mps", "peak_platform_yaw_rate_radps",
+             "peak_platform_acceleration_mps2", "peak_platform_yaw_acceleration_radps2",
+             "peak_velocity", "peak_acceleration", "limit_margins"]
 START = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.17, 0.35]
+
+
+def robot_coordinates() -> tuple[str, ...]:
+    return get_robot("youbot-3r").coordinates
 
 
 def make_scenario() -> Scenario:
@@ -99,6 +106,19 @@ def test_summary_keys_values_and_side_files(tmp_path: Path, rng: np.random.Gener
     assert summary["compute_time_s"] == 0.25 and summary["samples"] == 37
     assert summary["scenario"] == "io" and summary["message"] == "stuck near x = 0.3"
     assert summary["duration_s"] is None  # stalled far from the goal
+    # rate peaks of the dq / ddq columns by coordinate, a margin per finite default limit
+    dq = result.trajectory.dq
+    assert summary["peak_velocity"] == pytest.approx(
+        {c: float(np.max(np.abs(dq[:, j]))) for j, c in enumerate(robot_coordinates())})
+    assert summary["peak_platform_speed_mps"] == pytest.approx(
+        float(np.max(np.hypot(dq[:, 0], dq[:, 1]))))
+    rates = sc.robot.limits.rates
+    assert summary["limit_margins"]["platform_speed"] == pytest.approx(
+        rates.platform_speed - summary["peak_platform_speed_mps"])
+    assert set(summary["limit_margins"]) == {
+        *(f"velocity.{c}" for c in rates.velocity),
+        *(f"acceleration.{c}" for c in rates.acceleration),
+        "platform_speed", "platform_yaw_rate", "platform_acceleration", "platform_yaw_acceleration"}
     # independent values: clearance to the sphere from per-sample collision points
     robot = sc.robot
     gaps = [np.min(np.linalg.norm(robot.collision_points(q) - [2.0, 1.0, 0.3], axis=1) - 0.2)

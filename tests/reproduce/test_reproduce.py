@@ -180,6 +180,12 @@ def test_unknown_name_exits_2(tmp_path: Path) -> None:
 def test_run_selection_and_variants() -> None:
     specs = repro.run_specs()
     assert [s.name for s in specs if s.base is None] == list(SCENARIOS)
+    youbot = [n for n in SCENARIOS if n.startswith("youbot")]
+    assert len(youbot) == 4 and all(n.endswith("-unlimited") for n in youbot)
+    for name in youbot:  # the papers' robot: no velocity or acceleration limits
+        assert not mmplan.load_scenario(name).build().robot.limits.rates.any
+    limited = [s.name for s in repro.run_specs(["youbot3r-obstacles"])]
+    assert limited == ["youbot3r-obstacles"]  # the real limits: run only when named
     assert {s.name for s in specs if s.base} == {v.name for v in VARIANTS}
     picked = [s.name for s in repro.run_specs(["diffdrive3-track,wall-segment"])]
     assert picked == ["diffdrive3-track", "diffdrive3-track-no-obstacle-term", "wall-segment"]
@@ -190,15 +196,28 @@ PAPER_KEYS = ("PajakPajak", "AbdessemedDjebrani", "JaniakTchon", "Pajak", "Nagat
 
 
 def readme_methods() -> list[tuple[str, list[str]]]:
-    """(paper cell, built-in scenarios) of each row of the README's method table."""
+    """(paper cell, built-in scenarios) of each row of the README's method table; a listed
+    scenario brings its papers' variant ``<name>-unlimited`` (the robot without rate limits)
+    along, right after it, where one is built in."""
     rows = md_table((ROOT / "README.md").read_text(encoding="utf-8"),
                     ("method (`planner.method`)", "paper", "what it plans", "built-in scenarios"))
-    return [(cells[1], re.findall(r"`([a-z0-9-]+)`", cells[3])) for cells in rows]
+    builtin = mmplan.builtin_scenarios()
+    out = []
+    for cells in rows:
+        names: list[str] = []
+        for name in re.findall(r"`([a-z0-9-]+)`", cells[3]):
+            for n in (name, f"{name}-unlimited"):
+                if n not in names and (n == name or n in builtin):
+                    names.append(n)
+        out.append((cells[1], names))
+    return out
 
 
 def test_scenarios_are_the_built_in_paper_scenarios_of_the_readme() -> None:
     """SCENARIOS: the README's built-in scenarios in its order, less those without published
-    numbers, each labelled with the paper (key, section) of its method's row."""
+    numbers, each labelled with the paper (key, section) of its method's row. The youBot
+    tasks are reproduced by their ``-unlimited`` variants (the papers' robot); the plain names
+    hold the youBot's real rate limits and have no published numbers."""
     names = list(SCENARIOS)
     assert set(names) <= set(mmplan.builtin_scenarios())
     table = readme_methods()

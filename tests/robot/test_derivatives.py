@@ -8,7 +8,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from mmplan.robot import get_robot, robot_names
+from mmplan.robot import robot_names
+from tests.robot.robots import robot_or_skip
 
 H = 1e-6
 
@@ -24,7 +25,7 @@ def fd_jacobian(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray) -> np.ndar
 
 @pytest.mark.parametrize("name", robot_names())
 def test_jacobian_matches_finite_differences(name: str, rng: np.random.Generator) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     for _ in range(5):
         q = rng.uniform(-2, 2, robot.n)
         np.testing.assert_allclose(robot.jacobian(q), fd_jacobian(robot.ee_position, q), atol=1e-8)
@@ -34,7 +35,7 @@ def test_jacobian_matches_finite_differences(name: str, rng: np.random.Generator
 def test_pfaffian_derivative_matches_finite_differences(
     name: str, rng: np.random.Generator
 ) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     s = robot.symbols
     dA = ca.Function("dA", [s.q], [ca.jacobian(ca.vec(s.pfaffian), s.q)])
     for _ in range(5):
@@ -47,7 +48,7 @@ def test_pfaffian_derivative_matches_finite_differences(
 def test_manipulability_gradient_matches_finite_differences(
     name: str, rng: np.random.Generator
 ) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     s = robot.symbols
     grad = ca.Function("dmu", [s.q], [ca.gradient(s.manipulability, s.q)])
     for _ in range(5):
@@ -62,7 +63,7 @@ def test_manipulability_gradient_matches_finite_differences(
 def test_mass_matrix_derivative_matches_finite_differences(
     name: str, rng: np.random.Generator
 ) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     s = robot.symbols
     dM = ca.Function("dM", [s.q], [ca.jacobian(ca.vec(s.mass_matrix), s.q)])
     q = rng.uniform(-2, 2, robot.n)
@@ -72,7 +73,7 @@ def test_mass_matrix_derivative_matches_finite_differences(
 
 @pytest.mark.parametrize("name", robot_names())
 def test_null_basis_spans_kernel_of_pfaffian(name: str, rng: np.random.Generator) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     for _ in range(20):
         q = rng.uniform(-3, 3, robot.n)
         A, N, B = robot.pfaffian(q), robot.null_basis(q), robot.actuation(q)
@@ -86,7 +87,7 @@ def test_null_basis_spans_kernel_of_pfaffian(name: str, rng: np.random.Generator
 @pytest.mark.parametrize("name", robot_names())
 def test_bias_derivatives_match_finite_differences(name: str, rng: np.random.Generator) -> None:
     """dc/dq and dc/d(dq), which the extended-Jacobian generator differentiates through."""
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     s = robot.symbols
     dc = ca.Function("dc", [s.q, s.dq], [ca.jacobian(s.bias, s.q), ca.jacobian(s.bias, s.dq)])
     q, dq = rng.uniform(-2, 2, robot.n), rng.uniform(-2, 2, robot.n)
@@ -99,7 +100,7 @@ def test_bias_derivatives_match_finite_differences(name: str, rng: np.random.Gen
 def test_null_basis_derivative_matches_finite_differences(
     name: str, rng: np.random.Generator
 ) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     s = robot.symbols
     dN = ca.Function("dN", [s.q], [ca.jacobian(ca.vec(s.null_basis), s.q)])
     q = rng.uniform(-2, 2, robot.n)

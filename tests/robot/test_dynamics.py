@@ -9,11 +9,12 @@ import pytest
 from mmplan.robot import get_robot, robot_names
 from mmplan.robot.library import youbot_4r
 from tests.pinocchio_model import build_pinocchio
+from tests.robot.robots import robot_or_skip
 
 
 @pytest.mark.parametrize("name", robot_names())
 def test_mass_matrix_and_bias_match_pinocchio(name: str, rng: np.random.Generator) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     model, order = build_pinocchio(robot)
     data = model.createData()
     assert model.nq == robot.n
@@ -33,7 +34,7 @@ def test_mass_matrix_and_bias_match_pinocchio(name: str, rng: np.random.Generato
 
 @pytest.mark.parametrize("name", robot_names())
 def test_mass_matrix_is_symmetric_positive_definite(name: str, rng: np.random.Generator) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     for _ in range(20):
         M = robot.mass_matrix(rng.uniform(-3, 3, robot.n))
         np.testing.assert_allclose(M, M.T, atol=1e-12)
@@ -43,7 +44,7 @@ def test_mass_matrix_is_symmetric_positive_definite(name: str, rng: np.random.Ge
 @pytest.mark.parametrize("name", ["youbot-3r", "youbot-4r"])
 def test_energy_balance_along_a_free_motion(name: str, rng: np.random.Generator) -> None:
     """Unactuated, unconstrained motion conserves kinetic + potential energy (RK4, small dt)."""
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     q, dq = rng.uniform(-1, 1, robot.n), rng.uniform(-1, 1, robot.n)
 
     def energy(q: np.ndarray, dq: np.ndarray) -> float:
@@ -83,7 +84,7 @@ def test_actuator_efforts_realise_the_constrained_acceleration(
     name: str, rng: np.random.Generator
 ) -> None:
     """tau = (N^T B)^-1 N^T (M ddq + c) leaves only a constraint force (in the image of A^T)."""
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     q, dq, ddq = (rng.uniform(-1, 1, robot.n) for _ in range(3))
     tau = robot.actuator_efforts(q, dq, ddq)
     residual = robot.mass_matrix(q) @ ddq + robot.bias(q, dq) - robot.actuation(q) @ tau

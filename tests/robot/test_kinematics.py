@@ -7,6 +7,7 @@ import pytest
 
 from mmplan.robot import get_robot, robot_names
 from mmplan.robot.library import base_6dof
+from tests.robot.robots import robot_or_skip
 
 N_RANDOM = 1000
 
@@ -141,7 +142,7 @@ def test_base_6dof_matches_standard_dh_product(rng: np.random.Generator) -> None
 
 @pytest.mark.parametrize("name", robot_names())
 def test_collision_points_follow_the_platform(name: str) -> None:
-    robot = get_robot(name)
+    robot = robot_or_skip(name)
     q = np.zeros(robot.n)
     P0 = robot.collision_points(q)
     q[0], q[1] = 1.5, -2.0

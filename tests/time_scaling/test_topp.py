@@ -91,8 +91,8 @@ def _random_problem(rng: np.random.Generator, N: int, n: int) -> tuple:
     return sigma, alpha, beta, g, lo, hi, float(rng.choice([0.7, 1.0, 2.0]))
 
 
-def _assert_same(args: tuple) -> Scaling:
-    new, ref = time_optimal_scaling(*args), reference_scaling(*args)
+def _assert_same(args: tuple, **kwargs: object) -> Scaling:
+    new, ref = time_optimal_scaling(*args, **kwargs), reference_scaling(*args, **kwargs)
     assert (new.feasible, new.first_empty) == (ref.feasible, ref.first_empty)
     np.testing.assert_allclose(new.x, ref.x, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(new.v, ref.v, rtol=1e-9, atol=1e-9)
@@ -212,3 +212,15 @@ def test_casadi_vm_fallback_matches_the_reference(monkeypatch: pytest.MonkeyPatc
         assert outcomes == [False, True]  # an empty set, and both passes over two chunks
     finally:
         passes.cache_clear()
+
+
+def test_many_rows_use_the_mapped_backward_step_and_match_the_reference() -> None:
+    """Above MAPPED_ABOVE rows (efforts plus acceleration rows) the pair projections run as one
+    mapped function: same results as the reference (feasible and empty cases, two chunks)."""
+    assert ej_topp_passes.MAPPED_ABOVE < 12
+    rng = np.random.default_rng(12)
+    outcomes = []
+    for N in (40, 300, 257, 120):
+        sc = _assert_same(_random_problem(rng, N, 12))
+        outcomes.append(sc.feasible)
+    assert True in outcomes and False in outcomes

@@ -14,7 +14,10 @@ from tests.eta_planner import METHOD
 CONTRACT_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
              "final_error_m", "min_clearance_m", "max_joint_limit_violation",
              "max_torque_violation", "max_pfaffian_residual", "manipulability_start",
-             "manipulability_end", "manipulability_min", "compute_time_s", "samples"]
+             "manipulability_end", "manipulability_min", "compute_time_s", "samples",
+             "peak_platform_speed_mps", "peak_platform_yaw_rate_radps",
+             "peak_platform_acceleration_mps2", "peak_platform_yaw_acceleration_radps2",
+             "peak_velocity", "peak_acceleration", "limit_margins"]
 Q0 = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.17, 0.35]
 R_WHEEL = 0.05
 

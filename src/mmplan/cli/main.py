@@ -8,10 +8,11 @@ A thin layer over the public API. No traceback reaches the user: an
 from __future__ import annotations
 
 import sys
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import click
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
@@ -19,16 +20,67 @@ from rich.table import Table
 
 import mmplan
 from mmplan.cli.output import ProgressBar as _Bar
-from mmplan.cli.output import err, out, print_check, print_plan
+from mmplan.cli.output import StepStatus as _Steps
+from mmplan.cli.output import err, out, print_check, print_export, print_plan, rate_limits_text
 from mmplan.errors import MmplanError
 
 ISSUES_HINT = "this is a bug in mmplan; please report it with the command you ran"
+#: Longest line printed for an error or a failed check (the rest is cut with "...").
+MAX_LINE = 500
 
+
+def _one_line(text: str, limit: int = MAX_LINE) -> str:
+    """``text`` on one line (line breaks escaped) of at most ``limit`` characters."""
+    text = text[:4 * limit].replace("\r", "\\r").replace("\n", "\\n").replace("\t", " ")
+    text = "".join(c if c.isprintable() else "?" for c in text)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _print_error(message: str) -> None:
+    err.print(_one_line(f"error: {message}"), markup=False, soft_wrap=True)
 
 
 def _fail(message: str, code: int) -> NoReturn:
-    err.print(f"error: {message}", markup=False, soft_wrap=True)
+    _print_error(message)
     raise SystemExit(code)
+
+
+class _UsageLine(click.ClickException):
+    """A usage error (missing argument, bad choice, ...) shown as one line, exit code 2."""
+
+    exit_code = 2
+
+    def show(self, file: object = None) -> None:
+        _print_error(self.message)
+
+
+@contextmanager
+def _usage_in_one_line() -> Iterator[None]:
+    """Click's usage errors (usage block + hint + message) become one ``error:`` line."""
+    try:
+        yield
+    except click.exceptions.NoArgsIsHelpError:
+        raise  # bare `mmplan`: the help text is the answer
+    except _UsageLine:
+        raise
+    except click.ClickException as exc:
+        ctx = getattr(exc, "ctx", None)
+        hint = f" (see '{ctx.command_path} --help')" if isinstance(exc, click.UsageError) \
+            and ctx is not None else ""
+        raise _UsageLine(f"{exc.format_message()}{hint}") from None
+
+
+class _Group(click.Group):
+    """The ``mmplan`` group: every usage error of it and its commands is one line."""
+
+    def make_context(self, info_name: str | None, args: list[str],
+                     parent: click.Context | None = None, **extra: Any) -> click.Context:
+        with _usage_in_one_line():
+            return super().make_context(info_name, args, parent, **extra)
+
+    def invoke(self, ctx: click.Context) -> Any:
+        with _usage_in_one_line():
+            return super().invoke(ctx)
 
 
 @contextmanager
@@ -42,12 +94,26 @@ def _user_errors() -> Iterator[None]:
         _fail("interrupted", 130)
     except (SystemExit, click.exceptions.Exit, click.ClickException):
         raise
+    except OSError as exc:  # a path the system refuses (too long, not writable, ...): bad input
+        if exc.filename is None:
+            _fail(f"internal error: {type(exc).__name__}: {exc} ({ISSUES_HINT})", 1)
+        name = str(exc.filename)
+        name = name if len(name) <= 120 else f"{name[:60]}...{name[-40:]} ({len(name)} characters)"
+        _fail(f"{name}: {exc.strerror or exc}", 2)
     except Exception as exc:
         first = str(exc).splitlines()[0] if str(exc) else ""
         _fail(f"internal error: {type(exc).__name__}: {first} ({ISSUES_HINT})", 1)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def _is_dir(path: Path) -> bool:
+    """``path.is_dir()``, False for a name the system refuses (too long, ...)."""
+    try:
+        return path.is_dir()
+    except (OSError, ValueError):
+        return False
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(mmplan.__version__, prog_name="mmplan")
 def main() -> None:
     """Whole-body trajectory planning for mobile manipulators.
@@ -59,6 +125,7 @@ def main() -> None:
       mmplan plan youbot3r-obstacles --out run1      # plan, write run1/
       mmplan check run1                              # re-verify run1/ independently
       mmplan report run1                             # run1/report.html (figures, 3D)
+      mmplan export run1 --out run1-100hz --ros2 bag # fixed rate; ROS 2 bag
       mmplan reproduce --out repro                   # all paper examples vs the papers
 
     Exit codes: 0 success, 2 bad input, 3 planned but the task was not reached / check
@@ -69,13 +136,18 @@ def main() -> None:
 
 @main.command()
 def robots() -> None:
-    """List the built-in robots (name, n coordinates, h constraints, coordinates)."""
+    """List the built-in robots (name, n coordinates, h constraints, coordinates) and their
+    velocity and acceleration limits (sources: docs/conventions.md, Limits)."""
     with _user_errors():
         table = Table("robot", "n", "h", "coordinates", "description")
+        rates = Table("robot", "velocity limits (m/s, rad/s)", "acceleration limits (/s^2)",
+                      caption="sources of the numbers: docs/conventions.md, Limits")
         for name in mmplan.robot_names():
             r = mmplan.get_robot(name)
             table.add_row(name, str(r.n), str(r.h), " ".join(r.coordinates), r.description)
+            rates.add_row(name, *rate_limits_text(r.limits.rates))
         out.print(table)
+        out.print(rates)
 
 
 @main.command()
@@ -139,7 +211,7 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
     with _user_errors():
         from mmplan.io.plan_folder import check_out_dir
 
-        if Path(scenario).is_dir():
+        if _is_dir(Path(scenario)):
             raise mmplan.InputError("SCENARIO", f"{scenario} is a directory; give a scenario "
                                     "file or a built-in name (`mmplan scenarios`)")
         sc = mmplan.load_scenario(scenario)
@@ -164,7 +236,7 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
             print_plan(result, summary, written)
         failures = [str(f) for f in summary.get("check_failures", [])]
         for line in failures:
-            err.print(f"FAIL {line}", markup=False, soft_wrap=True)
+            err.print(_one_line(f"FAIL {line}"), markup=False, soft_wrap=True)
         if with_report:
             from mmplan.report import write_report  # optional extra: imported only here
 
@@ -182,7 +254,9 @@ def check_cmd(directory: Path) -> None:
 
     Recomputes from q alone: end effector by forward kinematics, clearance to the original
     obstacles by exact geometry, joint and torque limits, Pfaffian residual |A(q) dq|,
-    dq against q, completion times T(1 cm), T(1 mm); checks that the status in
+    dq against q, velocity and acceleration limits at every sample (on the dq, ddq columns,
+    slack 1e-6 relative, and on finite differences of q and dq, 1 %), completion times
+    T(1 cm), T(1 mm); checks that the status in
     summary.json agrees with the task error and that every checked number in summary.json
     agrees with the recomputed one (relative 1e-6). Example:
 
@@ -200,12 +274,14 @@ def check_cmd(directory: Path) -> None:
         trajectory, sc = mmplan.read_plan(directory)
         claimed = mmplan.read_summary(directory)
         status = claimed.get("status")
-        report = mmplan.check(trajectory, sc.build(),
-                              status=None if status is None else str(status))
+        with warnings.catch_warnings():  # absurd numbers (1e308) are failed checks, not noise
+            warnings.simplefilter("ignore", RuntimeWarning)
+            report = mmplan.check(trajectory, sc.build(),
+                                  status=None if status is None else str(status))
+            failures = report.failures() + summary_disagreements(claimed, report, sc.method)
         print_check(report)
-        failures = report.failures() + summary_disagreements(claimed, report, sc.method)
         for line in failures:
-            err.print(f"FAIL {line}", markup=False, soft_wrap=True)
+            err.print(_one_line(f"FAIL {line}"), markup=False, soft_wrap=True)
         if failures:
             raise SystemExit(3)
         out.print("check passed", markup=False)
@@ -229,6 +305,62 @@ def report(plan_dir: Path) -> None:
         from mmplan.report import render_report_cli  # optional extra: imported only here
 
         render_report_cli(plan_dir)
+
+
+@main.command(name="export")
+@click.argument("plan_dir", type=click.Path(path_type=Path))
+@click.option("--rate", type=float, default=100.0, show_default=True,
+              help="Control rate in Hz (1 to 10000): one sample every 1/rate s.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Plan folder to write at the control rate (new, empty or an earlier plan "
+                   "folder; replaced atomically).")
+@click.option("--ros2", "bag", type=click.Path(file_okay=False, path_type=Path),
+              help="rosbag2 folder to write (new, empty or an earlier bag; needs "
+                   "pip install 'mmplan[ros]').")
+@click.option("--quiet", "-q", is_flag=True, help="Print nothing but failures; exit code only.")
+def export_cmd(plan_dir: Path, rate: float, out_dir: Path | None, bag: Path | None,
+               quiet: bool) -> None:
+    """Export the plan in PLAN_DIR at a fixed control rate: a plan folder and/or a ROS 2 bag.
+
+    The plan is resampled every 1/rate s (the last step ends at the plan's final time): q,
+    dq, ddq from one interpolant through the samples (a quartic per step matching q, dq,
+    ddq at its start and q, dq at its end), dq projected onto the wheels' Pfaffian
+    constraints A(q) dq = 0, efforts (tau) and u interpolated linearly, ee recomputed by
+    forward kinematics.
+
+    --out writes a plan folder checked like `mmplan plan` does (summary.json recomputed;
+    `mmplan check OUT` re-verifies it). --ros2 writes a rosbag2 (sqlite3, ROS 2 Humble/Jazzy
+    messages) without ROS: /joint_trajectory (one JointTrajectory: wheel/steering and arm
+    joints, a point per sample), /cmd_vel (a Twist per sample: base velocity in the platform
+    frame) and /base_path (one Path of the base pose, frame odom). Examples:
+
+    \b
+      mmplan export runs/youbot --out runs/youbot-100hz
+      mmplan export runs/youbot --rate 250 --ros2 bags/youbot
+      mmplan export runs/youbot --out runs/y100 --ros2 bags/y100
+
+    Exit code 0 when written and the exported trajectory passes every check, 3 when written
+    but a check fails (FAIL lines), 2 for bad input (no plan folder, a rate outside 1-10000
+    Hz, an output that may not be written, rosbags not installed).
+    """
+    with _user_errors():
+        from mmplan.io.export import export_plan
+
+        steps = _Steps(enabled=not quiet and err.is_terminal)
+        try:
+            done = export_plan(plan_dir, rate=rate, out=out_dir, ros2=bag, step=steps)
+        finally:
+            steps.close()
+        if not quiet:
+            print_export(done)
+        for line in done.failures:
+            err.print(f"FAIL {line}", markup=False, soft_wrap=True)
+        step = done.resampled.source_step_min
+        if any(f.startswith("dq consistency") for f in done.failures) and step * rate < 1:
+            err.print(f"hint: the plan's own steps are down to {step:.3g} s; a higher --rate "
+                      f"(up to {1 / step:.4g} Hz) resolves its motion", markup=False)
+        if done.failures:
+            raise SystemExit(3)
 
 
 @main.command(name="reproduce")

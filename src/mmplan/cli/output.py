@@ -2,15 +2,24 @@
 
 from __future__ import annotations
 
+import math
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
 import mmplan
+
+if TYPE_CHECKING:
+    from rich.status import Status
+
+    from mmplan.io.export import Exported
+    from mmplan.robot import RateLimits
+    from mmplan.verify.rates import RateReport
 
 PROGRESS_DELAY_S = 1.0
 
@@ -52,41 +61,184 @@ class ProgressBar:
             self.progress.stop()
 
 
+def _when(value: float | None, timed: bool) -> str:
+    """An instant: ``13.78 s``, or ``s = 0.5`` when t is a segment's parameter (not time)."""
+    if value is None:
+        return "never"
+    return f"{value:.4g} s" if timed else f"s = {value:.4g}"
+
+
+def _row(label: str, value: str, rule: str = "") -> None:
+    """``label: value`` and, in a third column, the threshold it is checked against."""
+    text = f"{label + ':':23s}{value}"
+    out.print(f"{text:46s} {rule}".rstrip() if rule else text, markup=False)
+
+
 def print_plan(result: mmplan.PlanResult, summary: dict[str, Any], written: Path) -> None:
-    """Status line and the checker's key metrics (as written to summary.json)."""
-    out.print(f"status: {result.status.value}" + (f" ({result.message})" if result.message else ""),
-              markup=False)
-    rows = [("T(1 cm)", _fmt(summary.get("duration_1cm_s"), " s")),
-            ("T(1 mm)", _fmt(summary.get("duration_1mm_s"), " s")),
-            ("final error", _fmt(summary.get("final_error_m"), " m")),
-            ("min clearance", _fmt(summary.get("min_clearance_m"), " m")),
-            ("compute time", _fmt(summary.get("compute_time_s"), " s", 3))]
-    for label, value in rows:
-        out.print(f"{label + ':':15s}{value}", markup=False)
+    """Status, then the checker's numbers as written to summary.json: the reach time (from
+    then on within the tolerance) apart from the trajectory's end (its last sample)."""
+    reached = result.status.value == "reached"
+    message = f" ({result.message})" if result.message and not reached else ""
+    out.print(f"status: {result.status.value}{message}", markup=False)
+    peaks = summary.get("peak_velocity")
+    timed = not (isinstance(peaks, dict) and not peaks)  # no peaks: t is a segment parameter
+    t_end = float(result.trajectory.t[-1]) if len(result.trajectory.t) else None
+    final = summary.get("final_error_m")
+    _row("reach time", _when(summary.get("duration_s"), timed),
+         "within the goal tolerance from then on" if reached else "task not completed")
+    _row("trajectory end", _when(t_end, timed), f"final error {_fmt(final, ' m')}")
+    _row("T(1 cm)", _when(summary.get("duration_1cm_s"), timed))
+    _row("T(1 mm)", _when(summary.get("duration_1mm_s"), timed))
+    clearance = summary.get("min_clearance_m")
+    _row("min clearance", _fmt(clearance, " m"),
+         "must be >= 0 m" if clearance is not None else "no obstacles")
+    _row("compute time", _fmt(summary.get("compute_time_s"), " s", 3))
     out.print(f"written to {written}", markup=False)
 
 
-def print_check(report: mmplan.CheckReport) -> None:
-    """The checker's metrics, one per line."""
-    rows: list[tuple[str, Callable[[], str]]] = [
-        ("status (claimed)", lambda: _fmt(report.status)),
-        ("samples", lambda: str(report.samples)),
-        ("T(tolerance)", lambda: _fmt(report.duration_s, " s")),
-        ("T(1 cm)", lambda: _fmt(report.duration_1cm_s, " s")),
-        ("T(1 mm)", lambda: _fmt(report.duration_1mm_s, " s")),
-        ("final error", lambda: _fmt(report.final_error_m, " m")),
-        ("min clearance", lambda: _fmt(report.min_clearance_m, " m")),
-        ("joint limit violation", lambda: _fmt(report.max_joint_limit_violation)),
-        ("torque violation", lambda: _fmt(report.max_torque_violation)
-         + (f" ({report.torque_source} efforts)" if report.torque_source else "")),
-        ("tau vs model", lambda: _fmt(report.tau_model_deviation)),
-        ("pfaffian residual", lambda: _fmt(report.max_pfaffian_residual)),
-        ("dq residual", lambda: _fmt(report.dq_residual, " /s")),
-        ("ddq residual", lambda: _fmt(report.ddq_residual, " /s")),
-        ("ee vs FK", lambda: _fmt(report.ee_deviation_m, " m")),
-        ("manipulability", lambda: f"start {_fmt(report.manipulability_start)}, end "
-                                   f"{_fmt(report.manipulability_end)}, min "
-                                   f"{_fmt(report.manipulability_min)}"),
-    ]
-    for label, value in rows:
-        out.print(f"{label + ':':23s}{value()}", markup=False)
+def print_check(report: mmplan.CheckReport, trajectory_end_s: float | None = None) -> None:
+    """Every quantity the checker computes with the threshold it must meet ("info": reported,
+    not a pass criterion); then the rate limits with theirs.
+
+    Args:
+        report: The checker's report.
+        trajectory_end_s: The trajectory's last sample time, shown apart from the reach time
+            when given (the report does not hold it).
+    """
+    from mmplan.verify.check import DQ_REL_TOL, EE_TOL, LIMIT_TOL, PFAFFIAN_TOL, TORQUE_TOL
+
+    rates = getattr(report, "rates", None)
+    timed = bool(getattr(rates, "timed", True))
+    completed = "completed" if report.task_completed else "not completed"
+    _row("status (claimed)", _fmt(report.status), f"must agree: the task is {completed}")
+    _row("samples", str(report.samples), "values must be finite: "
+         + ("yes" if report.finite else "NO"))
+    _row("reach time T(tol)", _when(report.duration_s, timed),
+         f"error <= {report.tolerance:g} m from then on (scenario tolerance)")
+    if trajectory_end_s is not None:
+        _row("trajectory end", _when(trajectory_end_s, timed), "info")
+    _row("T(1 cm)", _when(report.duration_1cm_s, timed), "info")
+    _row("T(1 mm)", _when(report.duration_1mm_s, timed), "info")
+    _row("final error", _fmt(report.final_error_m, " m"), "info")
+    _row("min clearance", _fmt(report.min_clearance_m, " m"),
+         "must be >= 0 m" if report.min_clearance_m is not None else "no obstacles")
+    _row("joint limit violation", _fmt(report.max_joint_limit_violation),
+         f"must be <= {LIMIT_TOL:g} (rad or m)")
+    source = f", {report.torque_source} efforts" if report.torque_source else ""
+    _row("torque violation", _fmt(report.max_torque_violation),
+         f"must be <= {TORQUE_TOL:g} (N m or N{source})")
+    _row("tau vs model", _fmt(report.tau_model_deviation),
+         "info (friction models may differ)")
+    _row("pfaffian residual", _fmt(report.max_pfaffian_residual, " m/s"),
+         f"must be <= {PFAFFIAN_TOL:g} m/s")
+    dq_limit = DQ_REL_TOL * max(report.dq_scale, 1e-3)
+    _row("dq residual", _fmt(report.dq_residual, " /s"),
+         f"must be <= {dq_limit:.3g} /s ({DQ_REL_TOL:g} x max |dq| {report.dq_scale:.3g})")
+    _row("ddq residual", _fmt(report.ddq_residual, " /s"),
+         f"info, no threshold (max |ddq| {report.ddq_scale:.3g}; steps in ddq are allowed)")
+    _row("ee vs FK", _fmt(report.ee_deviation_m, " m"), f"must be <= {EE_TOL:g} m")
+    _row("manipulability", f"start {_fmt(report.manipulability_start)}, end "
+         f"{_fmt(report.manipulability_end)}, min {_fmt(report.manipulability_min)}", "info")
+    if rates is not None:
+        print_rates(rates)
+
+
+def print_rates(rates: RateReport) -> None:
+    """Each rate limit with its thresholds: the dq/ddq columns' peak, the finite differences'."""
+    from mmplan.verify.rates import FD_REL_TOL, RATE_REL_TOL
+
+    if not rates.timed:
+        out.print(f"{'rate limits:':23s}t is the segment parameter, not time: not checkable"
+                  + (f" ({', '.join(rates.untimed_limits)} set)" if rates.untimed_limits else ""),
+                  markup=False)
+        return
+    out.print(f"{'platform peaks:':23s}speed {_fmt(rates.peak_platform_speed_mps, ' m/s')}, "
+              f"yaw rate {_fmt(rates.peak_platform_yaw_rate_radps, ' rad/s')}, acceleration "
+              f"{_fmt(rates.peak_platform_acceleration_mps2, ' m/s^2')}", markup=False)
+    if not rates.checks:
+        out.print(f"{'rate limits:':23s}none set", markup=False)
+        return
+    out.print(f"{'rate limits:':23s}peak of the dq/ddq columns <= limit (1 + {RATE_REL_TOL:g}); "
+              f"finite differences of q, dq <= limit (1 + {FD_REL_TOL:g})", markup=False)
+    for c in rates.checks:
+        verdict = "ok" if not c.failures() else "FAIL"
+        out.print(f"  {c.label + ':':28s}peak {c.peak:.4g}, finite diff. {c.fd_peak:.4g}, limit "
+                  f"{c.limit:.4g} {c.unit}, margin {c.limit - c.peak:.3g}: {verdict}",
+                  markup=False)
+
+
+def rate_limits_text(rates: RateLimits) -> tuple[str, str]:
+    """(velocity, acceleration) limits in brief, coordinates with equal bounds grouped."""
+    def brief(bounds: Mapping[str, float], linear: float, angular: float, per: str) -> str:
+        parts = []
+        if math.isfinite(linear):
+            parts.append(f"platform {linear:.4g} m{per}")
+        if math.isfinite(angular):
+            parts.append(f"yaw {angular:.4g} rad{per}")
+        groups: dict[float, list[str]] = {}
+        for name, value in bounds.items():
+            if math.isfinite(value):
+                groups.setdefault(value, []).append(name)
+        parts += [f"{' '.join(names)} {value:.4g}" for value, names in groups.items()]
+        return ", ".join(parts) or "off"
+
+    return (brief(rates.velocity, rates.platform_speed, rates.platform_yaw_rate, "/s"),
+            brief(rates.acceleration, rates.platform_acceleration,
+                  rates.platform_yaw_acceleration, "/s^2"))
+
+
+class StepStatus:
+    """Step callback that shows a spinner line with the step's name once it has run a second."""
+
+    def __init__(self, enabled: bool, delay: float = PROGRESS_DELAY_S) -> None:
+        self.enabled = enabled
+        self.delay = delay
+        self.shown: list[str] = []
+        self._lock = threading.Lock()
+        self._generation = 0
+        self._timer: threading.Timer | None = None
+        self._status: Status | None = None
+
+    def __call__(self, label: str) -> None:
+        self.close()
+        if self.enabled:
+            with self._lock:
+                self._timer = threading.Timer(self.delay, self._show,
+                                              args=(label, self._generation))
+                self._timer.daemon = True
+                self._timer.start()
+
+    def _show(self, label: str, generation: int) -> None:
+        with self._lock:
+            if generation == self._generation:  # the step is still running
+                self._status = err.status(label)
+                self._status.start()
+                self.shown.append(label)
+
+    def close(self) -> None:
+        """End the current step's line (if any)."""
+        with self._lock:
+            self._generation += 1
+            if self._timer is not None:
+                self._timer.cancel()
+                self._timer = None
+            if self._status is not None:
+                self._status.stop()
+                self._status = None
+
+
+def print_export(done: Exported) -> None:
+    """What ``mmplan export`` wrote: samples, residuals, the plan folder and the bag topics."""
+    r = done.resampled
+    out.print(f"resampled {r.source_samples} -> {r.trajectory.samples} samples at "
+              f"{r.rate_hz:g} Hz; Pfaffian residual {r.pfaffian_interpolated:.2g} m/s after "
+              f"interpolation, {r.pfaffian:.2g} m/s after projecting dq "
+              f"(dq changed by {r.dq_projection:.2g})", markup=False)
+    if done.plan_dir is not None:
+        verdict = "check passed" if not done.failures else f"{len(done.failures)} checks failed"
+        out.print(f"plan folder: {done.plan_dir} ({verdict})", markup=False)
+    if done.bag is not None:
+        b = done.bag
+        topics = ", ".join(f"{topic} {count}" for topic, count in b.counts.items())
+        out.print(f"ROS 2 bag: {b.path} (messages: {topics}; {b.points} trajectory points"
+                  f"{', with efforts' if b.effort else ''})", markup=False)

@@ -15,7 +15,11 @@ A plan directory holds
 
 Writing is atomic: everything goes to a temporary directory next to ``out_dir`` that is
 renamed into place only when complete, so an error or interrupt leaves no partial output
-(and an existing ``out_dir`` is replaced only after success).
+(and an existing ``out_dir`` is replaced only after success). The temporary directories
+(``.<name>.tmp-<pid>-<start>-*`` and, while a plan is replaced, ``.<name>.old-...``) name their
+owner process and its start time, and the owner holds an ``flock`` on them while it writes; a
+process killed mid-write (``kill -9``) leaves them behind, and the next :func:`write_plan` into
+the same parent removes those whose owner is gone (:mod:`mmplan.io.stale`).
 """
 
 from __future__ import annotations
@@ -24,7 +28,6 @@ import json
 import math
 import os
 import shutil
-import tempfile
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -34,12 +37,15 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.errors import InputError, ModelError
+from mmplan.io.stale import owned_temp_dir, release, remove_stale
 from mmplan.problem import Problem
 from mmplan.scenario.loader import Scenario, load_scenario
 from mmplan.trajectory import PlanResult, Trajectory
 from mmplan.verify.check import check
 
 FORMATS = ("csv", "npz")
+#: Largest summary.json read (bytes).
+MAX_SUMMARY_BYTES = 10_000_000
 
 
 def write_plan(out_dir: str | Path, result: PlanResult, problem: Problem, scenario: Scenario,
@@ -64,19 +70,22 @@ def write_plan(out_dir: str | Path, result: PlanResult, problem: Problem, scenar
     out = check_out_dir(out_dir)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+        remove_stale(out.parent)  # left by runs killed mid-write
+        tmp, lock = owned_temp_dir(out, "tmp")
     except OSError as exc:
-        raise InputError("--out", f"cannot create {out}: {exc.strerror or exc}") from None
+        raise InputError("--out", f"cannot create {_short(out)}: {exc.strerror or exc}") from None
     try:
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; a plan folder is a normal one
         _write_all(tmp, result, problem, scenario, fmt)
         _replace(tmp, out)
     except OSError as exc:
         shutil.rmtree(tmp, ignore_errors=True)
-        raise InputError("--out", f"cannot write {out}: {exc.strerror or exc}") from None
+        raise InputError("--out", f"cannot write {_short(out)}: {exc.strerror or exc}") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+    finally:
+        release(lock)
     return out
 
 
@@ -123,21 +132,37 @@ def check_out_dir(out_dir: str | Path) -> Path:
     try:
         full = out.resolve()
         cwd = Path.cwd().resolve()
-    except (OSError, RuntimeError) as exc:
-        raise InputError("--out", f"{out}: {exc}") from None
-    if full == cwd or full in cwd.parents or full.parent == full:
-        raise InputError("--out", f"{out} is the working directory, one of its parents or the "
-                         "root; name a new folder")
-    if out.is_symlink() or (out.exists() and not out.is_dir()):
-        raise InputError("--out", f"{out} exists and is not a directory")
-    if out.is_dir():
-        try:
-            empty = not any(out.iterdir())
-        except OSError as exc:
-            raise InputError("--out", f"{out}: {exc.strerror or exc}") from None
-        if not empty and not is_plan_dir(out):
-            raise InputError("--out", f"{out} exists and is not a plan directory")
+        if full == cwd or full in cwd.parents or full.parent == full:
+            raise InputError("--out", f"{_short(out)} is the working directory, one of its "
+                             "parents or the root; name a new folder")
+        if out.is_symlink() or (out.exists() and not out.is_dir()):
+            raise InputError("--out", f"{_short(out)} exists and is not a directory")
+        if out.is_dir() and any(out.iterdir()) and not is_plan_dir(out):
+            raise InputError("--out", f"{_short(out)} exists and is not a plan directory")
+        _check_writable(full)
+    except (OSError, RuntimeError, ValueError) as exc:  # too long, a loop, a NUL byte, ...
+        problem = getattr(exc, "strerror", None) or str(exc)
+        raise InputError("--out", f"{_short(out)}: {problem}") from None
     return Path(full)
+
+
+def _check_writable(full: Path) -> None:
+    """InputError unless ``full`` (or its nearest existing ancestor) is a writable directory."""
+    target = full if full.exists() else full.parent
+    while not target.exists() and target.parent != target:
+        target = target.parent
+    if not target.is_dir():
+        raise InputError("--out", f"cannot create {_short(full)}: {_short(target)} is not a "
+                         "directory")
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise InputError("--out", f"cannot create {_short(full)}: {_short(target)} is not "
+                         "writable")
+
+
+def _short(path: Path | str) -> str:
+    """A path for a one-line message: long ones keep their start and end."""
+    text = str(path)
+    return text if len(text) <= 120 else f"{text[:60]}...{text[-40:]} ({len(text)} characters)"
 
 
 def _replace(tmp: Path, out: Path) -> None:
@@ -145,19 +170,23 @@ def _replace(tmp: Path, out: Path) -> None:
     if not out.exists():
         os.replace(tmp, out)
         return
-    old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
+    old, lock = owned_temp_dir(out, "old")
     try:
-        os.replace(out, old / "plan")
-    except BaseException:
-        old.rmdir()
-        raise
-    try:
-        os.replace(tmp, out)
-    except BaseException:
-        os.replace(old / "plan", out)  # put the previous plan back
-        old.rmdir()
-        raise
-    shutil.rmtree(old, ignore_errors=True)
+        aside = old / out.name  # a stale .old- dir is put back under this name (stale.py)
+        try:
+            os.replace(out, aside)
+        except BaseException:
+            old.rmdir()
+            raise
+        try:
+            os.replace(tmp, out)
+        except BaseException:
+            os.replace(aside, out)  # put the previous plan back
+            old.rmdir()
+            raise
+        shutil.rmtree(old, ignore_errors=True)
+    finally:
+        release(lock)
 
 
 #: Planner ``info`` keys copied to the top level of summary.json (issue 5: the
@@ -246,8 +275,11 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
                 data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
     except OSError as exc:
         raise InputError(str(path), f"cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise InputError(str(path), "not UTF-8 text") from None
     except ValueError as exc:
-        raise InputError(str(path), f"malformed numbers: {exc}") from None
+        first = str(exc).splitlines()[0] if str(exc) else "not numbers"
+        raise InputError(str(path), f"malformed numbers: {first[:200]}") from None
     if data.size == 0:
         raise InputError(str(path), "no samples")
     if data.shape[1] != len(header):
@@ -302,11 +334,23 @@ def read_summary(directory: str | Path) -> dict[str, Any]:
     """summary.json of a plan directory as a dict (InputError if missing or malformed)."""
     path = Path(directory) / "summary.json"
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_SUMMARY_BYTES + 1)
     except OSError as exc:
         raise InputError(str(path), f"cannot read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_SUMMARY_BYTES:
+        raise InputError(str(path), f"larger than {MAX_SUMMARY_BYTES / 1e6:g} MB; mmplan writes "
+                         "a few kB")
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise InputError(str(path), f"not UTF-8 text (byte {exc.start}: "
+                         f"{raw[exc.start:exc.start + 1]!r})") from None
     except json.JSONDecodeError as exc:
         raise InputError(str(path), f"malformed JSON: {exc}") from None
+    except (ValueError, RecursionError) as exc:  # a 5000-digit number, [[[[...]]]] nesting
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(str(path), f"malformed JSON: {first[:200]}") from None
     if not isinstance(data, dict):
         raise InputError(str(path), "expected a JSON object")
     return data

@@ -1,6 +1,7 @@
 """HTML report of a plan directory: summary, the papers' figures and a 3D animation.
 
-Optional extra (``pip install 'mmplan[report]'``, matplotlib); imported only by report code and
+Optional extra (``pip install 'mmplan[report]'``: matplotlib for the figures, meshcat for the
+3D viewer, whose three.js bundle is inlined); imported only by report code and
 the CLI, never by the core. Entry points: :func:`write_report` (library) and
 :func:`render_report_cli` (``mmplan report DIR``). Numerical warnings of the plotting stack
 (overflow in axis scaling of extreme data, empty CSV files) are silenced: the report shows the
@@ -11,6 +12,8 @@ is still rendered, with a red banner in the summary and a one-line warning on st
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from importlib.util import find_spec
 from pathlib import Path
 
 from mmplan.errors import MmplanError
@@ -26,19 +29,23 @@ except ImportError:  # pragma: no cover - depends on the environment
     raise MissingExtraError(
         "mmplan report needs matplotlib: pip install 'mmplan[report]'"
     ) from None
+if find_spec("meshcat") is None:  # pragma: no cover - depends on the environment
+    raise MissingExtraError("mmplan report needs meshcat (its 3D viewer): "
+                            "pip install 'mmplan[report]'")
 
 import numpy as np  # noqa: E402
 
 from mmplan.report import build as _build  # noqa: E402
 
 
-def write_report(plan_dir: str | Path, max_frames: int = 1000) -> Path:
+def write_report(plan_dir: str | Path, max_frames: int = 1000,
+                 step: Callable[[str], None] | None = None, parallel: bool = True) -> Path:
     """Write ``plan_dir/report.html`` and ``plan_dir/figures/*.png`` (see
     :func:`mmplan.report.build.write_report`), without numerical warnings on stderr."""
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
         warnings.simplefilter("ignore", UserWarning)
-        return _build.write_report(plan_dir, max_frames)
+        return _build.write_report(plan_dir, max_frames, step, parallel)
 
 
 def check_failures(plan_dir: str | Path) -> list[str]:
@@ -59,16 +66,27 @@ def check_failures(plan_dir: str | Path) -> list[str]:
 
 def render_report_cli(plan_dir: str | Path) -> Path:
     """``mmplan report DIR``: write the report, print where it is; warn (one line on stderr)
-    when the plan fails its independent checks."""
+    when the plan fails its independent checks. A step that runs over a second shows its name
+    on the terminal (stderr) while it runs."""
     import click
 
-    out = write_report(plan_dir)
+    from mmplan.cli.output import StepStatus, err
+    from mmplan.report.background import Background
+
+    checking = Background(lambda: check_failures(plan_dir))  # in parallel with the drawing
+    steps = StepStatus(enabled=err.is_terminal)
+    try:
+        out = write_report(plan_dir, step=steps)
+        steps("checking the plan")
+        failed = checking.result()
+    finally:
+        checking.cancel()
+        steps.close()
     figures = len(list((Path(plan_dir) / "figures").glob("*.png")))
     click.echo(
         f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB, {figures} figures in "
         f"{out.parent / 'figures'})"
     )
-    failed = check_failures(plan_dir)
     if failed:
         more = f" (+{len(failed) - 1} more)" if len(failed) > 1 else ""
         click.echo(f"warning: this plan FAILS its checks: {failed[0]}{more}; see "

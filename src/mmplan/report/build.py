@@ -1,41 +1,73 @@
 """Writing a report: read the plan directory, derive, draw, assemble, write.
 
 ``write_report(DIR)`` writes ``DIR/report.html`` (one self-contained file) and
-``DIR/figures/<name>.png`` (the same figures as files).
+``DIR/figures/<name>.png`` (the same figures as files). The figures are drawn in two halves,
+one by a forked child process (:mod:`.background`) while this process builds the 3D view and
+draws the other half.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from mmplan.errors import InputError
-from mmplan.report.animation import scene_data, scene_json, viewer_script
+from mmplan.report.background import Background
 from mmplan.report.context import ReportContext, build_context
 from mmplan.report.figure_kit import RenderedFigure
 from mmplan.report.figures import time_figures
 from mmplan.report.figures_method import artifact_figures, history_figure
 from mmplan.report.figures_space import platform_figure, top_view_figure
 from mmplan.report.html import page, viewer_block
+from mmplan.report.overview import overview
 from mmplan.report.plan_data import read_plan_dir
+
+Step = Callable[[str], None]
+
+
+def _none(label: str) -> None:
+    """No progress display."""
+
+
+def first_half(ctx: ReportContext) -> list[RenderedFigure]:
+    """The spatial figures and the method's own (history, artifacts)."""
+    figures = [top_view_figure(ctx), platform_figure(ctx)]
+    history = history_figure(ctx.plan.history, ctx.plan.t)
+    if history is not None:
+        figures.append(history)
+    return figures + artifact_figures(ctx.plan.artifacts)
+
+
+def second_half(ctx: ReportContext) -> list[RenderedFigure]:
+    """The time series ([PajakPajak]'s and [Pajak]'s figures)."""
+    return time_figures(ctx)
+
+
+def order(figures: list[RenderedFigure]) -> list[RenderedFigure]:
+    """Report order: the top view, the time series, the platform, the method's figures."""
+    rank = {"top_view": 0, "platform": 2}
+    return sorted(figures, key=lambda f: rank.get(f.name, 1 if f.name in TIME_SERIES else 3))
+
+
+TIME_SERIES = ("clearance", "joints", "manipulability", "torques_wheels", "torques_arm",
+               "virtual_control", "extra_columns", "task_error")
 
 
 def collect_figures(ctx: ReportContext) -> list[RenderedFigure]:
-    """Every figure the plan has data for, in report order."""
-    figures = [top_view_figure(ctx), *time_figures(ctx), platform_figure(ctx)]
-    history = history_figure(ctx.plan.history)
-    if history is not None:
-        figures.append(history)
-    figures += artifact_figures(ctx.plan.artifacts)
-    return figures
+    """Every figure the plan has data for, in report order (drawn in this process)."""
+    return order(first_half(ctx) + second_half(ctx))
 
 
-def write_report(plan_dir: str | Path, max_frames: int = 1000) -> Path:
+def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None = None,
+                 parallel: bool = True) -> Path:
     """Write ``plan_dir/report.html`` and ``plan_dir/figures/*.png``.
 
     Args:
         plan_dir: A plan directory (trajectory.csv, summary.json, scenario.yaml; optionally
             history.csv, artifacts.npz), as written by ``mmplan plan``.
-        max_frames: Frames of the 3D animation (the trajectory is decimated), 2..2000.
+        max_frames: Keyframes of the 3D animation (the trajectory is decimated), 2..2000.
+        step: Called with the name of each step as it starts (progress display).
+        parallel: Draw half the figures in a forked child process (Linux).
 
     Returns:
         Path of the written report.html.
@@ -43,12 +75,23 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000) -> Path:
     Raises:
         InputError: the directory or one of its files is missing or malformed.
     """
+    step = step or _none
     root = Path(plan_dir)
+    step("reading the plan")
     plan = read_plan_dir(root)
     ctx = build_context(plan, max_samples=max_frames)
-    figures = collect_figures(ctx)
-    viewer = viewer_block(scene_json(scene_data(ctx, max_frames)), viewer_script())
-    text = page(plan.summary, plan.scenario, figures, viewer)
+    step("drawing the figures and the 3D view")
+    child = Background(lambda: first_half(ctx), enabled=parallel)
+    try:
+        from mmplan.report.scene3d import scene_commands  # meshcat: imported here, once
+
+        viewer = viewer_block(scene_commands(ctx, max_frames))
+        own = second_half(ctx)
+        figures = order(child.result() + own)
+    finally:
+        child.cancel()
+    step("writing the page")
+    text = page(plan.summary, plan.scenario, overview(ctx), figures, viewer)
     folder = root / "figures"
     try:
         folder.mkdir(exist_ok=True)
@@ -64,17 +107,4 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000) -> Path:
         raise InputError(
             "plan_dir", f"cannot write the report into {root}: {exc.strerror}"
         ) from None
-    return out
-
-
-def render_report_cli(plan_dir: str | Path) -> Path:
-    """``mmplan report DIR``: write the report and print where it is (one line)."""
-    import click
-
-    out = write_report(plan_dir)
-    figures = len(list((Path(plan_dir) / "figures").glob("*.png")))
-    click.echo(
-        f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB, {figures} figures in "
-        f"{out.parent / 'figures'})"
-    )
     return out

@@ -83,6 +83,16 @@ class ReportContext:
         """Times of the decimated samples (K,)."""
         return np.asarray(self.plan.t[self.index], dtype=float)
 
+    @property
+    def timed(self) -> bool:
+        """False when ``t`` is the segment parameter s in [0, 1] (a segment task), not time."""
+        return self.task_kind != "segment"
+
+    @property
+    def t_label(self) -> str:
+        """Axis label of ``t``: ``t [s]``, or ``s [-]`` for the segment parameter."""
+        return "t [s]" if self.timed else "segment parameter s [-]"
+
 
 def decimation(samples: int, max_samples: int) -> NDArray[np.intp]:
     """At most ``max_samples`` evenly spread indices of ``samples``, first and last included."""
@@ -198,15 +208,18 @@ def build_context(plan: PlanData, max_samples: int = 1000) -> ReportContext:
     planner = planner if isinstance(planner, Mapping) else {}
     obstacles = build_obstacles(scenario.get("obstacles") or [], planner.get("influence"))
     index = decimation(plan.samples, max_samples)
-    q_dec = plan.q[index]
-    mu = np.array([robot.manipulability(q) for q in q_dec])
-    clearance = np.full((len(index), len(obstacles)), np.nan)
+    q_dec = np.ascontiguousarray(plan.q[index].T)  # (n, K): every sample in one call
+    K = len(index)
+    mu = np.asarray(robot.functions["manipulability"].map(K)(q_dec), dtype=float).reshape(K)
+    clearance = np.full((K, len(obstacles)), np.nan)
     if obstacles and robot.collision:
-        radii = robot.collision_radii
-        for k, q in enumerate(q_dec):
-            points = robot.collision_points(q)
-            for j, view in enumerate(obstacles):
-                clearance[k, j] = float(np.min(view.obstacle.distance(points) - radii))
+        P = len(robot.collision)
+        points = np.asarray(robot.functions["collision_points"].map(K)(q_dec), dtype=float)
+        points = np.ascontiguousarray(points.T)  # (K * P, 3), sample-major
+        radii = np.tile(robot.collision_radii, K)
+        for j, view in enumerate(obstacles):
+            gap = np.asarray(view.obstacle.distance(points), dtype=float) - radii
+            clearance[:, j] = gap.reshape(K, P).min(axis=1)
     goal = scenario.get("goal") or {}
     task = build_task(goal) if isinstance(goal, Mapping) else None
     kind = ""

@@ -12,8 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, NullLocator
 
 from mmplan.arrays import Array
+from mmplan.report.figure_layout import stack_layout
 
 LIMIT_COLOR = "tab:red"
 DPI = 110
@@ -36,12 +38,50 @@ class RenderedFigure:
     png: bytes
 
 
-def new_figure(width: float = 7.0, height: float = 3.6) -> tuple[Figure, Axes]:
-    """A figure with one axes, grid on."""
-    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+def new_figure(width: float = 7.0, height: float = 3.6, constrained: bool = False
+               ) -> tuple[Figure, Axes]:
+    """A figure with one axes, grid on; laid out by :func:`stack_layout` when rendered, or by
+    matplotlib's constrained layout (for colorbars)."""
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained" if constrained else None)
     ax = fig.add_subplot()
     ax.grid(True, alpha=0.3)
     return fig, ax
+
+
+def log_y(ax: Axes) -> None:
+    """Logarithmic y axis labelled in plain numbers (0.001, 1e-05), without minor ticks:
+    mathtext powers of ten and nine minor ticks a decade were half of such a figure's
+    drawing time."""
+    ax.set_yscale("log")
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.yaxis.set_minor_locator(NullLocator())
+
+
+def legend_outside(ax: Axes, **kwargs: object) -> None:
+    """The axes' legend to the right of the plotting area, never over the data."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8,
+                  frameon=False, **kwargs)
+
+
+#: Units of names ending in these suffixes (history.csv, artifacts.npz columns).
+SUFFIX_UNITS = {"_m": "m", "_s": "s", "_hz": "Hz", "_rad": "rad", "_mps": "m/s",
+                "_radps": "rad/s", "_mps2": "m/s^2", "_nm": "N m", "_n": "N"}
+
+
+def unit_of(name: str, default: str = "-") -> str:
+    """The unit a column name states by its suffix (``clearance_m`` -> m), else ``default``
+    (``-``: dimensionless, or as stored)."""
+    lower = name.lower()
+    for suffix, unit in SUFFIX_UNITS.items():
+        if lower.endswith(suffix):
+            return unit
+    return default
+
+
+def axis_label(name: str, unit: str) -> str:
+    """``name [unit]``."""
+    return f"{name} [{unit}]"
 
 
 def limit_line(ax: Axes, y: float, label: str | None = None) -> None:
@@ -50,9 +90,14 @@ def limit_line(ax: Axes, y: float, label: str | None = None) -> None:
 
 
 def render(fig: Figure, name: str, title: str, caption: str) -> RenderedFigure:
-    """PNG of ``fig`` (no metadata, so identical input gives identical bytes)."""
+    """PNG of ``fig`` (no metadata, so identical input gives identical bytes); a figure without
+    a layout engine is laid out by :func:`stack_layout` first. Light compression: the report
+    is written often and read from disk."""
+    if fig.get_layout_engine() is None:
+        stack_layout(fig)
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=DPI, metadata={"Software": None})
+    fig.savefig(buffer, format="png", dpi=DPI, metadata={"Software": None},
+                pil_kwargs={"compress_level": 3})
     return RenderedFigure(name, title, caption, buffer.getvalue())
 
 

@@ -13,11 +13,19 @@ import numpy as np
 from mmplan.report.context import ReportContext
 from mmplan.report.figure_kit import (
     RenderedFigure,
+    legend_outside,
     limit_line,
+    log_y,
     mean_normalized,
     new_figure,
     render,
 )
+from mmplan.report.overview import effort_unit
+from mmplan.report.palette import obstacle_color
+
+#: Units of further trajectory columns ([JaniakTchon]'s platform controls: drive speed,
+#: steering rate).
+EXTRA_UNITS = {"u1": "m/s", "u2": "rad/s"}
 
 
 def clearance_figure(ctx: ReportContext) -> RenderedFigure | None:
@@ -27,17 +35,18 @@ def clearance_figure(ctx: ReportContext) -> RenderedFigure | None:
     fig, ax = new_figure()
     t = ctx.t_dec
     for j, view in enumerate(ctx.obstacles):
-        (line,) = ax.plot(t, ctx.clearance[:, j], label=f"obstacle {view.label}")
+        color = obstacle_color(j)
+        ax.plot(t, ctx.clearance[:, j], color=color, label=f"obstacle {view.label}")
         if view.influence is not None:
-            ax.axhline(ctx.margin + view.influence, color=line.get_color(), linestyle="--", lw=1)
+            ax.axhline(ctx.margin + view.influence, color=color, linestyle="--", lw=1)
     if ctx.margin > 0:
         ax.axhline(
             ctx.margin, color="0.4", linestyle=":", lw=1, label=f"enlargement {ctx.margin} m"
         )
     limit_line(ax, 0.0, "contact")
-    ax.set_xlabel("t [s]")
+    ax.set_xlabel(ctx.t_label)
     ax.set_ylabel("distance [m]")
-    ax.legend(fontsize=8, loc="upper right")
+    legend_outside(ax)
     lowest = float(np.nanmin(ctx.clearance))
     return render(
         fig,
@@ -63,9 +72,9 @@ def joints_figure(ctx: ReportContext) -> RenderedFigure | None:
         ax.plot(ctx.plan.t, norm[:, k], label=name + ("" if by_limits[k] else " (by range)"))
     limit_line(ax, 0.5)
     limit_line(ax, -0.5, "limits")
-    ax.set_xlabel("t [s]")
+    ax.set_xlabel(ctx.t_label)
     ax.set_ylabel("normalized angle [-]")
-    ax.legend(fontsize=8, loc="upper right", ncol=2)
+    legend_outside(ax)
     worst = float(np.max(np.abs(norm[:, by_limits]))) if by_limits.any() else float("nan")
     return render(
         fig,
@@ -80,8 +89,8 @@ def manipulability_figure(ctx: ReportContext) -> RenderedFigure:
     """Arm manipulability mu(q) = sqrt(det(J_a J_a^T)) over time ([PajakPajak] Figs. 5, 10)."""
     fig, ax = new_figure()
     ax.plot(ctx.t_dec, ctx.manipulability, color="tab:purple")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("manipulability [m^3]")
+    ax.set_xlabel(ctx.t_label)
+    ax.set_ylabel(f"manipulability [{manipulability_unit(ctx)}]")
     mu = ctx.manipulability
     return render(
         fig,
@@ -90,6 +99,14 @@ def manipulability_figure(ctx: ReportContext) -> RenderedFigure:
         f"Yoshikawa measure of the arm, recomputed from q: start {mu[0]:.5f}, "
         f"end {mu[-1]:.5f}, min {np.min(mu):.5f} ([PajakPajak] Figs. 5 and 10).",
     )
+
+
+def manipulability_unit(ctx: ReportContext) -> str:
+    """m^3 for the position measure of an all-revolute arm (J_a: m/rad), else ``-`` (mixed)."""
+    robot = ctx.robot
+    revolute = all(j.kind.value == "revolute" for j in robot.tree.joints
+                   if j.coordinate in robot.arm_coordinates)
+    return "m^3" if revolute and robot.end_effector.manipulability == "position" else "-"
 
 
 def _torque_figure(ctx: ReportContext, arm: bool) -> RenderedFigure | None:
@@ -117,13 +134,14 @@ def _torque_figure(ctx: ReportContext, arm: bool) -> RenderedFigure | None:
     fig, ax = new_figure()
     for k, i in enumerate(chosen):
         suffix = "" if by_limits[k] else " (no limit: by range)"
-        ax.plot(plan.t, norm[:, k], label=f"tau.{plan.actuators[i]}{suffix}")
+        unit = effort_unit(robot, plan.actuators[i])
+        ax.plot(plan.t, norm[:, k], label=f"{plan.actuators[i]} [{unit}]{suffix}")
     if by_limits.any():
         limit_line(ax, 0.5)
         limit_line(ax, -0.5, "limits")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("normalized torque [-]")
-    ax.legend(fontsize=8, loc="upper right")
+    ax.set_xlabel(ctx.t_label)
+    ax.set_ylabel("normalized effort [-]")
+    legend_outside(ax)
     part = "arm joint" if arm else "wheel"
     worst = float(np.max(np.abs(norm[:, by_limits]))) if by_limits.any() else float("nan")
     return render(
@@ -153,13 +171,14 @@ def virtual_control_figure(ctx: ReportContext) -> RenderedFigure | None:
     fig, ax = new_figure(height=3.0)
     ax.plot(ctx.plan.t, ctx.plan.u, color="tab:green")
     ax.set_ylim(-0.05, 1.05)
-    ax.set_xlabel("t [s]")
+    ax.set_xlabel(ctx.t_label)
     ax.set_ylabel("u [-]")
     return render(
         fig,
         "virtual_control",
         "Virtual control u(t)",
-        "Scaling of the feedback that keeps the efforts inside the safety zone ([Pajak] Fig. 7).",
+        "Scaling of the feedback that keeps the efforts inside the safety zone "
+        "([PajakPajak] eq. (21), [Pajak] Fig. 7): 1 full speed, 0 the motion held back.",
     )
 
 
@@ -169,15 +188,18 @@ def extra_columns_figure(ctx: ReportContext) -> RenderedFigure | None:
     if not extra:
         return None
     fig, ax = new_figure(height=3.0)
+    units = {EXTRA_UNITS.get(name, "-") for name in extra}
     for name, values in extra.items():
-        ax.plot(ctx.plan.t, values, label=name)
-    ax.set_xlabel("t [s]")
-    ax.legend(fontsize=8)
+        ax.plot(ctx.plan.t, values, label=f"{name} [{EXTRA_UNITS.get(name, '-')}]")
+    ax.set_xlabel(ctx.t_label)
+    ax.set_ylabel(f"control [{', '.join(sorted(units))}]")
+    legend_outside(ax)
+    cited = " ([JaniakTchon] eq. (16): u1 drive speed, u2 steering rate)" if "u1" in extra else ""
     return render(
         fig,
         "extra_columns",
         "Further controls",
-        f"Columns {', '.join(extra)} of trajectory.csv over time.",
+        f"Columns {', '.join(extra)} of trajectory.csv over time{cited}.",
     )
 
 
@@ -187,17 +209,30 @@ def task_error_figure(ctx: ReportContext) -> RenderedFigure | None:
         return None
     fig, ax = new_figure(height=3.2)
     err = np.maximum(ctx.task_error, 1e-12)
-    ax.semilogy(ctx.plan.t, err, color="tab:blue")
+    ax.plot(ctx.plan.t, err, color="tab:blue")
+    log_y(ax)
     limit_line(ax, ctx.tolerance, f"tolerance {ctx.tolerance:g} m")
-    ax.set_xlabel("t [s]")
+    ax.set_xlabel(ctx.t_label)
     ax.set_ylabel("error [m]")
-    ax.legend(fontsize=8)
+    summary = ctx.plan.summary
+    reach = summary.get("duration_s")
+    if isinstance(reach, int | float) and not isinstance(reach, bool):
+        ax.axvline(float(reach), color="0.3", linestyle=":", lw=1,
+                   label=f"reach {'time' if ctx.timed else 'at'} {float(reach):.4g}"
+                   + (" s" if ctx.timed else ""))
+    legend_outside(ax)
     if ctx.task_kind == "reach":
-        title, what = "Distance to the goal", "|k(q) - p_f|"
+        title, what = "Distance to the goal", "|k(q) - p_f|, the task of [PajakPajak] eq. (2)"
+    elif ctx.task_kind == "segment":
+        title = "Distance to the segment"
+        what = "distance of the tool to the segment ([Nagatani] s.5.1)"
     else:
-        title, what = "Tracking error", "|k(q(t)) - X_d(t)|"
+        title, what = "Tracking error", "|k(q(t)) - X_d(t)| ([AbdessemedDjebrani] s.2, s.3)"
     return render(
-        fig, "task_error", title, f"{what} over time, log scale; final {ctx.task_error[-1]:.3g} m."
+        fig, "task_error", title,
+        f"{what} over time, log scale; dotted: the reach time (from then on within the "
+        f"tolerance); final {ctx.task_error[-1]:.3g} m at the end, "
+        f"{'t' if ctx.timed else 's'} = {ctx.plan.t[-1]:.4g}{' s' if ctx.timed else ''}.",
     )
 
 

@@ -109,7 +109,7 @@ def distribution_figure(data: LmaData) -> RenderedFigure:
             label="task point (tool), layer 0",
         )
     ax.plot([], [], color="tab:red", alpha=0.5, lw=6, label=f"threshold {level:.3f}")
-    ax.legend(loc="upper left", fontsize=8)
+    fig.legend(loc="outside lower center", ncols=2, fontsize=8)
     ax.set_xlim(float(X.min()), float(X.max()))
     ax.set_ylim(float(Y.min()), float(Y.max()))
     ax.set_zlim(0.0, float(W.max()) * 1.05)

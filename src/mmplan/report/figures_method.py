@@ -20,7 +20,16 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from mmplan.report.figure_kit import DPI, RenderedFigure, new_figure, render
+from mmplan.report.figure_kit import (
+    DPI,
+    RenderedFigure,
+    axis_label,
+    legend_outside,
+    log_y,
+    new_figure,
+    render,
+    unit_of,
+)
 from mmplan.report.figures_lma import lma_figures
 from mmplan.report.figures_vibration import VIBRATION_KEYS, vibration_figure
 from mmplan.report.lma_data import OPTIONAL, REQUIRED, read_lma
@@ -34,34 +43,55 @@ def _positive_decades(values: Array) -> bool:
     return bool(finite.size and (finite > 0).all() and finite.max() > 100 * finite.min())
 
 
-def history_figure(history: Mapping[str, Array]) -> RenderedFigure | None:
-    """Per-iteration series of history.csv, one panel per column."""
+#: Units of planners' history.csv columns (names without a unit suffix).
+HISTORY_UNITS = {"error": "m", "task_error": "m", "error_norm": "-", "perturbation_scale": "-",
+                 "min_singular_value": "-", "sigma_bound": "-"}
+#: What each method's history is, with its paper.
+HISTORY_SOURCES = {
+    "iteration": "per iteration of the endogenous method's Jacobian iteration ([JaniakTchon] "
+                 "eq. (20)): error norm, task error, smallest singular value",
+    "t": "per time step of the tracking rollout ([AbdessemedDjebrani] s.2, s.3)",
+    "samples": "per trajectory sample of the extended-Jacobian generator ([PajakPajak] eq. "
+               "(19)): task error and the obstacle perturbation's scale",
+}
+
+
+def history_figure(history: Mapping[str, Array], t: Array | None = None
+                   ) -> RenderedFigure | None:
+    """Per-iteration or per-step series of history.csv, one panel per column.
+
+    The x axis is the ``iteration`` column, the ``t`` column, or (a history with one row
+    per trajectory sample and neither) the trajectory's time ``t``.
+    """
     if not history:
         return None
-    x_name = "iteration" if "iteration" in history else None
+    x_name = next((k for k in ("iteration", "t") if k in history), None)
     series = {k: v for k, v in history.items() if k != x_name}
     if not series:
         return None
+    first = np.asarray(next(iter(series.values())))
+    if x_name is not None:
+        x, source = np.asarray(history[x_name], dtype=float), HISTORY_SOURCES[x_name]
+        x_label = "iteration [-]" if x_name == "iteration" else "t [s]"
+    elif t is not None and len(t) == len(first):
+        x, x_label, source = np.asarray(t, float), "t [s]", HISTORY_SOURCES["samples"]
+    else:
+        x, x_label, source = np.arange(len(first), dtype=float), "row [-]", "per row"
     names = list(series)[:MAX_PANELS]
-    fig = Figure(figsize=(7.0, 2.2 * len(names) + 0.6), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(7.0, 1.9 * len(names) + 0.6), dpi=DPI, layout=None)
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     for ax, name in zip(axes, names, strict=True):
         y = np.asarray(series[name], dtype=float)
-        x = history[x_name] if x_name else np.arange(len(y))
-        ax.plot(x, y, marker="." if len(y) < 60 else None)
+        ax.plot(x[: len(y)], y, marker="." if len(y) < 60 else None)
         if _positive_decades(y):
-            ax.set_yscale("log")
-        ax.set_ylabel(name)
+            log_y(ax)
+        ax.set_ylabel(axis_label(name, HISTORY_UNITS.get(name, unit_of(name))))
         ax.grid(True, alpha=0.3)
-    axes[-1].set_xlabel(x_name or "row")
+    axes[-1].set_xlabel(x_label)
     last = {n: float(series[n][-1]) for n in names}
     text = ", ".join(f"{n} = {v:.3g}" for n, v in last.items())
-    return render(
-        fig,
-        "history",
-        "Convergence per iteration",
-        f"Columns of history.csv over the iterations ([JaniakTchon] error norm); last: {text}.",
-    )
+    title = "Convergence per iteration" if x_name == "iteration" else "Planner series over time"
+    return render(fig, "history", title, f"Columns of history.csv, {source}; last: {text}.")
 
 
 def _is_path(a: Array) -> bool:
@@ -108,7 +138,8 @@ def _inside(path: Array, extent: tuple[float, float, float, float]) -> bool:
 
 
 def _draw_grid(
-    ax: Axes, grid: Array, artifacts: Mapping[str, Array], paths: dict[str, Array]
+    ax: Axes, grid: Array, artifacts: Mapping[str, Array], paths: dict[str, Array],
+    name: str = "value",
 ) -> None:
     image_data, gx, gy = _grid_axes(grid, artifacts)
     extent = None
@@ -117,8 +148,11 @@ def _draw_grid(
         hy = 0.5 * (gy[-1] - gy[0]) / max(len(gy) - 1, 1)
         extent = (float(gx[0] - hx), float(gx[-1] + hx), float(gy[0] - hy), float(gy[-1] + hy))
     image = ax.imshow(image_data, origin="lower", extent=extent, aspect="auto", cmap="viridis")
-    ax.figure.colorbar(image, ax=ax, shrink=0.8)
+    bar = ax.figure.colorbar(image, ax=ax, shrink=0.8)
+    bar.set_label(axis_label(name, unit_of(name)))
     if extent is None:
+        ax.set_xlabel("column [-]")
+        ax.set_ylabel("row [-]")
         return
     drawn = False
     for name, path in paths.items():
@@ -127,7 +161,8 @@ def _draw_grid(
             ax.plot(path[:, 0], path[:, 1], color="black", lw=1.0, label=name)
             drawn = True
     if drawn:
-        ax.legend(fontsize=7, loc="upper right")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False,
+                  ncols=3)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
 
@@ -156,8 +191,8 @@ def generic_figures(arrays: Mapping[str, Array]) -> list[RenderedFigure]:
     used: set[str] = set(paths)
     for name, a in arrays.items():
         if a.ndim == 2 and name not in paths and min(a.shape) > 1:
-            fig, ax = new_figure(width=6.4, height=4.8)
-            _draw_grid(ax, a.astype(float), arrays, paths)
+            fig, ax = new_figure(width=6.4, height=4.8, constrained=True)
+            _draw_grid(ax, a.astype(float), arrays, paths, name)
             ax.set_title(name)
             out.append(
                 render(
@@ -176,7 +211,7 @@ def generic_figures(arrays: Mapping[str, Array]) -> list[RenderedFigure]:
             fig = Figure(figsize=(7.0, 5.6), dpi=DPI, layout="constrained")
             axes = fig.subplots(2, 2, squeeze=False).ravel()
             for ax, layer in zip(axes, layers, strict=False):
-                _draw_grid(ax, a[layer].astype(float), arrays, paths)
+                _draw_grid(ax, a[layer].astype(float), arrays, paths, name)
                 ax.set_title(f"{name}[{layer}]", fontsize=9)
             for ax in axes[len(layers) :]:
                 ax.set_visible(False)
@@ -195,6 +230,8 @@ def generic_figures(arrays: Mapping[str, Array]) -> list[RenderedFigure]:
         fig, ax = new_figure(width=5.5, height=5.0)
         ax.plot(path[:, 0], path[:, 1], marker=".")
         ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
         out.append(
             render(
                 fig,
@@ -219,9 +256,11 @@ def _series_figures(arrays: Mapping[str, Array], used: set[str]) -> list[Rendere
         for name, y in list(ys.items())[:8]:
             ax.plot(x, y, label=name, lw=1.0)
         if all(_positive_decades(y) for y in ys.values()):
-            ax.set_yscale("log")
-        ax.set_xlabel(axis_name)
-        ax.legend(fontsize=8)
+            log_y(ax)
+        default = "Hz" if "freq" in axis_name.lower() else "s"
+        ax.set_xlabel(axis_label(axis_name, unit_of(axis_name, default)))
+        ax.set_ylabel(axis_label("value", ", ".join(sorted({unit_of(k) for k in ys}))))
+        legend_outside(ax)
         spectral = "freq" in axis_name.lower()
         title = "Spectrum" if spectral else "Series"
         out.append(
@@ -242,8 +281,9 @@ def _series_figures(arrays: Mapping[str, Array], used: set[str]) -> list[Rendere
         fig, ax = new_figure()
         for name, y in list(rest.items())[:8]:
             ax.plot(np.arange(len(y)), y, label=name)
-        ax.set_xlabel("index")
-        ax.legend(fontsize=8)
+        ax.set_xlabel("index [-]")
+        ax.set_ylabel(axis_label("value", ", ".join(sorted({unit_of(k) for k in rest}))))
+        legend_outside(ax)
         out.append(
             render(
                 fig,

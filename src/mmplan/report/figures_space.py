@@ -1,8 +1,9 @@
 """Spatial figures: end-effector and platform paths seen from above, with the obstacles.
 
 Mirrors [PajakPajak] Fig. 2, [Pajak] Fig. 6 and [AbdessemedDjebrani] Figs. 4, 10: the paths in
-the x-y plane, obstacle outlines (horizontal cross-sections of their superellipsoid models), the
-influence neighbourhoods dashed, and a few snapshots of the robot's links.
+the x-y plane, the obstacles' footprints in their true shapes (a box as its rectangle), the
+planners' influence neighbourhoods dashed (their superellipsoid models enlarged by the margin
+and the influence), and a few snapshots of the robot's links.
 """
 
 from __future__ import annotations
@@ -11,8 +12,16 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from mmplan.report.context import ReportContext
-from mmplan.report.figure_kit import DPI, RenderedFigure, limit_line, new_figure, render
-from mmplan.report.shapes import top_outline
+from mmplan.report.figure_kit import (
+    DPI,
+    RenderedFigure,
+    legend_outside,
+    new_figure,
+    render,
+)
+from mmplan.report.overview import coordinate_unit
+from mmplan.report.palette import EE_COLOR, GOAL_COLOR, PLATFORM_PATH_COLOR, obstacle_color
+from mmplan.report.shapes import footprint, top_outline
 from mmplan.task import DrawSegment, TrackPath
 
 SNAPSHOTS = 6
@@ -55,10 +64,10 @@ def reference_path(ctx: ReportContext) -> np.ndarray | None:
 def top_view_figure(ctx: ReportContext) -> RenderedFigure:
     """Paths of the end effector and the platform from above with obstacle outlines."""
     plan = ctx.plan
-    fig, ax = new_figure(width=6.4, height=6.0)
+    fig, ax = new_figure(width=7.6, height=6.0)
     for j, view in enumerate(ctx.obstacles):
-        outline = top_outline(view.obstacle.superellipsoid())
-        color = f"C{j % 10}"
+        outline = footprint(view.obstacle)
+        color = obstacle_color(j)
         ax.fill(outline[:, 0], outline[:, 1], color=color, alpha=0.35, lw=0)
         ax.plot(outline[:, 0], outline[:, 1], color=color, lw=1.2, label=f"obstacle {view.label}")
         if view.influence is not None:
@@ -70,9 +79,9 @@ def top_view_figure(ctx: ReportContext) -> RenderedFigure:
         for seg in link_segments(ctx, plan.q[i]):
             ax.plot(seg[:, 0], seg[:, 1], color="0.25", lw=1.0, alpha=0.35 + 0.65 * k / len(snaps))
     base = platform_path(ctx)
-    ax.plot(base[:, 0], base[:, 1], color="tab:gray", lw=1.5, label="platform")
-    ax.plot(plan.ee[:, 0], plan.ee[:, 1], color="tab:orange", lw=1.8, label="end effector")
-    ax.plot(*plan.ee[0, :2], "o", color="tab:orange", ms=5)
+    ax.plot(base[:, 0], base[:, 1], color=PLATFORM_PATH_COLOR, lw=1.5, label="platform")
+    ax.plot(plan.ee[:, 0], plan.ee[:, 1], color=EE_COLOR, lw=1.8, label="end effector")
+    ax.plot(*plan.ee[0, :2], "o", color=EE_COLOR, ms=5, label="start")
     reference = reference_path(ctx)
     if reference is not None:
         ax.plot(
@@ -85,17 +94,17 @@ def top_view_figure(ctx: ReportContext) -> RenderedFigure:
         )
     goal = (ctx.plan.scenario.get("goal") or {}).get("position")
     if goal is not None:
-        ax.plot(goal[0], goal[1], "*", color="tab:green", ms=12, label="goal")
+        ax.plot(goal[0], goal[1], "*", color=GOAL_COLOR, ms=12, label="goal")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.legend(fontsize=8, loc="best")
+    legend_outside(ax)
     return render(
         fig,
         "top_view",
         "Paths seen from above",
-        "End-effector and platform paths in the x-y plane with obstacle cross-sections "
-        "(filled) and influence neighbourhoods (dashed); grey: the links at "
+        "End-effector and platform paths in the x-y plane with the obstacles' footprints "
+        "(filled) and the planner's influence neighbourhoods (dashed); grey: the links at "
         f"{len(snaps)} instants ([PajakPajak] Fig. 2, [Pajak] Fig. 6).",
     )
 
@@ -110,34 +119,47 @@ def coordinate_bounds(ctx: ReportContext) -> dict[str, tuple[float, float]]:
     return found
 
 
+def platform_groups(ctx: ReportContext) -> list[tuple[str, list[str]]]:
+    """Platform coordinates in panels of one unit: position [m], heading (and steering)
+    [rad], wheel angles [rad]."""
+    robot = ctx.robot
+    names = list(robot.platform_coordinates)
+    wheels = [j.coordinate for j in robot.tree.joints
+              if j.coordinate in names and j.kind.value == "revolute" and abs(j.axis[2]) < 1e-9]
+    position = [n for n in names[:2] if coordinate_unit(robot, n) == "m"]
+    angles = [n for n in names if n not in position and n not in wheels]
+    groups = [("position [m]", position), ("heading, steering [rad]", angles),
+              ("wheel angle [rad]", [str(w) for w in wheels])]
+    return [(label, members) for label, members in groups if members]
+
+
 def platform_figure(ctx: ReportContext) -> RenderedFigure:
-    """Platform coordinates over time, one panel each, with planner bounds.
+    """Platform coordinates over time, a panel per unit, with planner bounds.
 
     As in [JaniakTchon] and [AbdessemedDjebrani] Fig. 8.
     """
     robot, plan = ctx.robot, ctx.plan
-    names = robot.platform_coordinates
     bounds = coordinate_bounds(ctx)
-    cols = 2 if len(names) > 1 else 1
-    rows = -(-len(names) // cols)
-    fig = Figure(figsize=(7.0, 1.9 * rows + 0.5), dpi=DPI, layout="constrained")
-    axes = fig.subplots(rows, cols, squeeze=False, sharex=True).ravel()
-    for ax, name in zip(axes, names, strict=False):
-        ax.plot(plan.t, plan.q[:, robot.index(name)], color="tab:blue", lw=1.2)
-        if name in bounds:
-            for value in bounds[name]:
-                limit_line(ax, value)
-        ax.set_ylabel(name)
+    groups = platform_groups(ctx)
+    fig = Figure(figsize=(7.0, 1.7 * len(groups) + 0.6), dpi=DPI, layout=None)
+    axes = fig.subplots(len(groups), 1, squeeze=False, sharex=True)[:, 0]
+    for ax, (label, names) in zip(axes, groups, strict=True):
+        for k, name in enumerate(names):
+            color = f"C{k}"
+            ax.plot(plan.t, plan.q[:, robot.index(name)], color=color, lw=1.2, label=name)
+            for i, value in enumerate(bounds.get(name, ())):
+                ax.axhline(value, color=color, linestyle="--", lw=1.0,
+                           label=f"bound of {name}" if i == 0 else None)
+        ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
-    for ax in axes[len(names) :]:
-        ax.set_visible(False)
-    for ax in axes[max(0, len(names) - cols) : len(names)]:
-        ax.set_xlabel("t [s]")
+        legend_outside(ax)
+    axes[-1].set_xlabel(ctx.t_label)
     text = "; ".join(f"{k} in [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in bounds.items())
     return render(
         fig,
         "platform",
         "Platform coordinates",
-        "Platform coordinates over time"
-        + (f"; dashed red: planner bounds {text}." if bounds else "."),
+        "Platform coordinates over time, grouped by unit (as in [JaniakTchon] s.III and "
+        "[AbdessemedDjebrani] Fig. 8)"
+        + (f"; dashed: planner bounds {text} ([JaniakTchon] s.III-B)." if bounds else "."),
     )

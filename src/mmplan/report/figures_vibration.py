@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from mmplan.arrays import Array
-from mmplan.report.figure_kit import DPI, RenderedFigure, render
+from mmplan.report.figure_kit import DPI, RenderedFigure, legend_outside, log_y, render
 
 FREQ = "vibration_freq_hz"
 TOTAL = "vibration_amplitude"
@@ -71,7 +71,7 @@ def vibration_figure(arrays: Mapping[str, np.ndarray]) -> RenderedFigure | None:
         return None
     time, norm = _time_series(arrays)
     timed = time is not None and norm is not None
-    fig = Figure(figsize=(7.4, 5.8 if timed else 3.8), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(7.4, 5.8 if timed else 3.8), dpi=DPI, layout=None)
     axes = fig.subplots(2 if timed else 1, 1, squeeze=False)[:, 0]
     ax = axes[0]
     for label, values in series.items():
@@ -88,7 +88,7 @@ def vibration_figure(arrays: Mapping[str, np.ndarray]) -> RenderedFigure | None:
     main = totals[0] if totals else np.sqrt(np.sum([v**2 for v in series.values()], axis=0))
     positive = main[1:][main[1:] > 0] if len(main) > 1 else main[main > 0]
     if positive.size and positive.max() > 100 * positive.min():
-        ax.set_yscale("log")
+        log_y(ax)
         ax.set_ylim(bottom=max(positive.min(), positive.max() * 1e-6))
     peak = int(np.argmax(main[1:]) + 1) if len(main) > 1 else 0
     ax.axvline(
@@ -102,7 +102,7 @@ def vibration_figure(arrays: Mapping[str, np.ndarray]) -> RenderedFigure | None:
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel(f"amplitude [{UNIT}]")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_outside(ax)
     rms = _rms(arrays)
     title = "Tip vibration acceleration spectrum"
     ax.set_title(title + (f", RMS = {rms:.4g} {UNIT}" if rms is not None else ""), fontsize=10)

@@ -1,21 +1,29 @@
-"""Assembly of the self-contained report page: summary table, 3D viewer, figures.
+"""Assembly of the self-contained report page.
 
-Everything is inline (CSS, the viewer script, figures as base64 PNG): the page references no
-URL and opens offline. A short script checks on load that every figure decoded and logs a
-console error naming any that did not.
+Order: the plain-language summary with every limit's margin (:mod:`.overview`), the 3D view,
+the figures, then what only a specialist needs, folded away: the planner's internals (all of
+summary.json), the resolved scenario and the papers cited. Everything is inline (CSS, the
+meshcat viewer bundle, the page script, the figures as base64 PNG): the page loads nothing and
+opens offline. A short script checks on load that every figure decoded and logs a console
+error naming any that did not.
 """
 
 from __future__ import annotations
 
 import base64
 import html
+import json
 from collections.abc import Mapping, Sequence
 from importlib import resources
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
 from mmplan.report.figure_kit import RenderedFigure
+from mmplan.report.overview import Overview
+
+if TYPE_CHECKING:  # meshcat is imported only where the 3D view is built
+    from mmplan.report.scene3d import Scene3D
 
 CHECK_SCRIPT = """
 window.addEventListener("load", function () {
@@ -28,29 +36,37 @@ window.addEventListener("load", function () {
 });
 """
 
-SUMMARY_ROWS: tuple[tuple[str, str, str], ...] = (
-    ("status", "Status", ""),
-    ("planner", "Planner", ""),
-    ("robot", "Robot", ""),
-    ("duration_s", "T (scenario tolerance)", "s"),
-    ("duration_1cm_s", "T (1 cm)", "s"),
-    ("duration_1mm_s", "T (1 mm)", "s"),
-    ("final_error_m", "Final error", "m"),
-    ("min_clearance_m", "Minimal clearance", "m"),
-    ("max_joint_limit_violation", "Max joint-limit violation", ""),
-    ("max_torque_violation", "Max torque violation", ""),
-    ("max_pfaffian_residual", "Max Pfaffian residual |A(q) dq|", ""),
-    ("manipulability_start", "Manipulability (start)", ""),
-    ("manipulability_end", "Manipulability (end)", ""),
-    ("manipulability_min", "Manipulability (min)", ""),
-    ("compute_time_s", "Compute time", "s"),
-    ("samples", "Samples", ""),
-    ("message", "Message", ""),
+#: The papers cited in captions (docs/references.md).
+REFERENCES = (
+    ("PajakPajak", "G. Pająk, I. Pająk: Trajectory Planning for Mobile Manipulators with "
+                   "Control Constraints."),
+    ("Pajak", "G. Pająk: Trajectory planning for mobile manipulators with vibration reduction. "
+              "Journal of Vibroengineering, 2021."),
+    ("AbdessemedDjebrani", "F. Abdessemed, S. Djebrani: Trajectory Generation for Mobile "
+                           "Manipulators. In: Robot Manipulators Trends and Development, "
+                           "InTech, 2010."),
+    ("JaniakTchon", "M. Janiak, K. Tchoń: Towards constrained motion planning of mobile "
+                    "manipulators."),
+    ("Nagatani", "K. Nagatani, T. Hirayama, A. Gofuku, Y. Tanaka: Motion Planning for Mobile "
+                 "Manipulator with Keeping Manipulability. 2002."),
+)
+
+VIEWER_LEGEND = (
+    "Robot: platform (grey box), wheels, arm links (orange) with joint axes (dark), tool (red "
+    "dot). Red tube: the end effector's path; grey tube: the platform's path on the ground; "
+    "green: the goal (or the reference path). Obstacles in their true shapes, numbered as in "
+    "the figures. Ground grid: {step:g} m squares, labelled in metres; axes at the origin: "
+    "x red, y green, z blue (0.5 m). Drag to orbit, right-drag to pan, wheel to zoom; "
+    "\"Open Controls\" (top right) hides or shows any part of the scene."
 )
 
 
 def _css() -> str:
     return (resources.files("mmplan.report") / "report.css").read_text(encoding="utf-8")
+
+
+def _package_text(package: str, name: str) -> str:
+    return (resources.files(package) / name).read_text(encoding="utf-8")
 
 
 def format_value(value: Any, unit: str = "") -> str:
@@ -71,47 +87,59 @@ def _rows_html(rows: Sequence[tuple[str, str, str]]) -> str:
     )
 
 
-def summary_table(summary: Mapping[str, Any]) -> str:
-    """HTML tables: the summary keys (docs/conventions.md) and further scalar keys, then the
-    planner's own numbers (``planner_info``) beside them."""
+def _flat_rows(data: Mapping[str, Any], prefix: str = "") -> list[tuple[str, str, str]]:
     rows = []
-    for key, label, unit in SUMMARY_ROWS:
-        if key in summary:
-            rows.append((label, format_value(summary[key], unit), key))
-    known = {k for k, _, _ in SUMMARY_ROWS} | {"planner_info"}
-    for key, value in summary.items():
-        if key not in known and isinstance(value, str | int | float | type(None)):
-            rows.append((key, format_value(value), key))
-    info_rows = []
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            rows += _flat_rows(value, name + ".")
+        elif isinstance(value, list):
+            text = ", ".join(format_value(v) for v in value[:24])
+            rows.append((name, text + (" ..." if len(value) > 24 else ""), name))
+        else:
+            rows.append((name, format_value(value), name))
+    return rows
+
+
+def internals(summary: Mapping[str, Any]) -> str:
+    """summary.json as tables: the checker's keys, then the planner's own (``planner_info``)."""
+    own = {k: v for k, v in summary.items() if k != "planner_info"}
+    rows = _rows_html(_flat_rows(own))
+    tables = f'<table class="summary"><caption>summary.json</caption>{rows}</table>'
     info = summary.get("planner_info")
-    if isinstance(info, Mapping):
-        for key, value in info.items():
-            if isinstance(value, list) and len(value) <= 12:
-                text = ", ".join(format_value(v) for v in value)
-                info_rows.append((key, text, f"planner_info.{key}"))
-            elif isinstance(value, str | int | float | bool | type(None)):
-                info_rows.append((key, format_value(value), f"planner_info.{key}"))
-    tables = f'<table class="summary">{_rows_html(rows)}</table>'
-    if info_rows:
-        tables += (
-            '<table class="summary info"><caption>planner info</caption>'
-            f"{_rows_html(info_rows)}</table>"
-        )
-    return f'{_check_banner(summary)}<div class="tables">{tables}</div>'
+    if isinstance(info, Mapping) and info:
+        tables += ('<table class="summary"><caption>planner_info (the planner\'s own numbers)'
+                   f"</caption>{_rows_html(_flat_rows(info, 'planner_info.'))}</table>")
+    return f'<div class="tables">{tables}</div>'
 
 
-def _check_banner(summary: Mapping[str, Any]) -> str:
+def check_banner(summary: Mapping[str, Any]) -> str:
     """Red banner when summary.json records failed independent checks (else empty)."""
     if summary.get("check_passed") is not False:
         return ""
     failures = summary.get("check_failures")
     items = "".join(f"<li>{html.escape(str(f))}</li>" for f in failures or []
                     ) if isinstance(failures, list) else ""
-    return (
-        '<div class="check-failed" style="background:#c5221f;color:#fff;padding:8px 12px;'
-        'border-radius:6px;margin:0 0 10px"><b>The independent check FAILED</b> '
-        f"(mmplan check): this plan is not valid as it stands.<ul>{items}</ul></div>"
-    )
+    return ('<div class="check-failed"><b>The independent check FAILED</b> (mmplan check): '
+            f"this plan is not valid as it stands.<ul>{items}</ul></div>")
+
+
+def overview_html(view: Overview, summary: Mapping[str, Any]) -> str:
+    """The opening: headline, key times and the limits table."""
+    facts = "".join(f'<tr data-key="{html.escape(k)}"><th>{html.escape(label)}</th>'
+                    f"<td>{html.escape(value)}</td></tr>" for label, value, k in view.facts)
+    rows = []
+    for r in view.limits:
+        mark = "" if r.ok is None else ('<span class="ok">✓</span>' if r.ok
+                                        else '<span class="bad">✗ broken</span>')
+        rows.append(f'<tr data-key="{html.escape(r.key)}"><th>{html.escape(r.what)}</th>'
+                    f"<td>{html.escape(r.worst)}</td><td>{html.escape(r.limit)}</td>"
+                    f"<td>{html.escape(r.margin)} {mark}</td></tr>")
+    limits = ('<table class="limits"><caption>Limits: how close the plan comes to each'
+              "</caption><tr><th>limit</th><th>along the plan</th><th>limit</th>"
+              f"<th>margin (closest approach)</th></tr>{''.join(rows)}</table>")
+    return (f'<p class="headline">{html.escape(view.headline)}</p>{check_banner(summary)}'
+            f'<div class="tables"><table class="summary facts">{facts}</table></div>{limits}')
 
 
 def figure_block(fig: RenderedFigure) -> str:
@@ -124,30 +152,41 @@ def figure_block(fig: RenderedFigure) -> str:
     )
 
 
-def viewer_block(scene_json: str, script: str) -> str:
-    """The 3D viewer's markup, its data and its script."""
+def viewer_block(scene: Scene3D) -> str:
+    """The 3D view: meshcat's viewer bundle, the commands, the page script and the controls."""
+    data = {"commands": [base64.b64encode(c).decode("ascii") for c in scene.commands],
+            "meta": scene.meta}
+    scene_json = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    licence = _package_text("meshcat", "viewer/dist/main.min.js.LICENSE.txt").replace("*/", "* /")
+    bundle = _package_text("meshcat", "viewer/dist/main.min.js")
+    options = "".join(f'<option value="{v}"{" selected" if v == "1" else ""}>{v}x</option>'
+                      for v in ("0.25", "0.5", "1", "2", "4"))
     return (
-        '<div id="mmplan-viewer"><canvas></canvas><div class="controls">'
+        '<div id="mmplan-viewer"><div class="stage"><div class="pane"></div>'
+        '<div class="labels"></div></div><div class="controls">'
         '<button class="play" type="button">Play</button>'
-        '<input type="range" min="0" max="0" value="0" step="1" aria-label="time">'
-        '<span class="time"></span><label>speed <select class="speed">'
-        '<option value="0.25">0.25x</option><option value="0.5">0.5x</option>'
-        '<option value="1" selected>1x</option><option value="2">2x</option>'
-        '<option value="4">4x</option><option value="8">8x</option></select></label></div>'
-        '<p class="legend">black: links; dots: collision points; red: end effector; orange: '
-        "its path; grey: platform path; green cross: goal; wireframes: obstacle models</p>"
+        '<input class="time" type="range" min="0" max="0" value="0" step="0.01" '
+        'aria-label="time"><span class="clock"></span>'
+        f'<label>speed <select class="speed">{options}</select></label>'
+        '<label><input class="follow" type="checkbox" checked> follow the robot</label>'
+        '<label><input class="points" type="checkbox"> collision model</label></div>'
+        f'<p class="legend">{html.escape(VIEWER_LEGEND.format(step=scene.meta["grid_step"]))}</p>'
         '<div class="message"></div>'
         f'<script id="mmplan-scene" type="application/json">{scene_json}</script>'
-        f"<script>{script}</script></div>"
+        "<script>/*! 3D viewer: meshcat (MIT, github.com/meshcat-dev/meshcat), bundled with "
+        f"three.js, dat.gui, msgpack-lite and others; their notices:\n{licence}*/\n"
+        f"{bundle}</script><script>{_package_text('mmplan.report', 'viewer.js')}</script></div>"
     )
 
 
-def page(
-    summary: Mapping[str, Any],
-    scenario: Mapping[str, Any],
-    figures: Sequence[RenderedFigure],
-    viewer: str,
-) -> str:
+def references_block() -> str:
+    """The papers cited by key (docs/references.md has the full entries)."""
+    items = "".join(f"<li><b>[{key}]</b> {html.escape(text)}</li>" for key, text in REFERENCES)
+    return f'<ul class="references">{items}</ul>'
+
+
+def page(summary: Mapping[str, Any], scenario: Mapping[str, Any], view: Overview,
+         figures: Sequence[RenderedFigure], viewer: str) -> str:
     """The whole report page."""
     status = str(summary.get("status", "unknown"))
     badge = "reached" if status == "reached" else "other"
@@ -163,11 +202,16 @@ def page(
         f"<title>mmplan report: {name}</title><style>{_css()}</style>"
         f"<script>{CHECK_SCRIPT}</script></head><body><main>"
         f'<h1>{name} <span class="badge {badge}">{html.escape(status)}</span></h1>'
-        f'<p class="sub">planner {planner} · robot {robot}</p>'
-        f'<section class="card"><h2>Summary</h2>{summary_table(summary)}</section>'
-        '<section class="card"><h2>3D animation</h2><p class="sub">Drag to orbit, wheel to '
-        f"zoom, double-click to reset.</p>{viewer}</section>"
+        f'<p class="sub">planner {planner} · robot {robot} · papers cited by key, listed at '
+        'the end</p>'
+        f'<section class="card" id="summary"><h2>Summary</h2>{overview_html(view, summary)}'
+        "</section>"
+        '<section class="card" id="view3d"><h2>The motion in 3D</h2>'
+        f"{viewer}</section>"
         f'<h2>Figures</h2><div class="figures">{figs}</div>'
+        '<details id="internals"><summary>Planner internals (summary.json: every number the '
+        f"checker and the planner recorded)</summary>{internals(summary)}</details>"
         f"<details><summary>Scenario (resolved)</summary><pre>{scenario_text}</pre></details>"
+        f"<details><summary>References</summary>{references_block()}</details>"
         "</main></body></html>\n"
     )

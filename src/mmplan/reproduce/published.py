@@ -19,11 +19,14 @@ from types import MappingProxyType
 from typing import Any
 
 #: Built-in paper scenarios (docs/conventions.md), in reproduction order, with their paper.
+#: The youBot runs are the ``-unlimited`` variants: the papers' robot, without the velocity and
+#: acceleration limits of the real youBot that the plain scenario names hold (run those with
+#: ``--only``).
 SCENARIOS: Mapping[str, str] = MappingProxyType({
-    "youbot3r-obstacles": "[PajakPajak]",
-    "youbot3r-obstacles-torque": "[PajakPajak]",
-    "youbot4r-reach": "[Pajak]",
-    "youbot4r-reach-smooth": "[Pajak]",
+    "youbot3r-obstacles-unlimited": "[PajakPajak]",
+    "youbot3r-obstacles-torque-unlimited": "[PajakPajak]",
+    "youbot4r-reach-unlimited": "[Pajak]",
+    "youbot4r-reach-smooth-unlimited": "[Pajak]",
     "diffdrive3-track": "[AbdessemedDjebrani] s.2",
     "omni3-impedance": "[AbdessemedDjebrani] s.3",
     "car-rtr-free": "[JaniakTchon]",
@@ -139,8 +142,8 @@ def _v(run: str, *key: str) -> Measure:
     return Measure((run,), key)
 
 
-Y3, Y3T, Y4, Y4S = ("youbot3r-obstacles", "youbot3r-obstacles-torque", "youbot4r-reach",
-                    "youbot4r-reach-smooth")
+Y3, Y3T, Y4, Y4S = ("youbot3r-obstacles-unlimited", "youbot3r-obstacles-torque-unlimited",
+                    "youbot4r-reach-unlimited", "youbot4r-reach-smooth-unlimited")
 DD, DD0, OM, OM0 = ("diffdrive3-track", "diffdrive3-track-no-obstacle-term", "omni3-impedance",
                     "omni3-impedance-off")
 CAR, CAR60, CAR30, WALL = "car-rtr-free", "car-rtr-steer60", "car-rtr-steer30", "wall-segment"

@@ -1,7 +1,8 @@
 """Scenario files: loading, validation against the robot and planner, building a Problem.
 
 A scenario file (YAML, docs/conventions.md; schema in :mod:`mmplan.scenario.schema`) names a
-built-in robot, a start configuration, a goal, obstacles, optional limits and the planner
+built-in robot, a start configuration, a goal, obstacles, optional limits (joint ranges,
+efforts, velocities and accelerations: :mod:`mmplan.scenario.rates`) and the planner
 settings. :func:`load_scenario` validates everything that can be known before planning and
 raises :class:`ScenarioError` (an :class:`~mmplan.errors.InputError`, exit code 2) whose
 message is one line ``<source>: <key path>: <problem>``, e.g.
@@ -24,7 +25,7 @@ from mmplan.errors import InputError, MmplanError
 from mmplan.planners import methods, settings_model
 from mmplan.problem import PlannerSettings, Problem
 from mmplan.robot import Limits, Robot, get_robot
-from mmplan.scenario.parse import ScenarioError, parse_yaml, validation_error
+from mmplan.scenario.parse import ScenarioError, parse_yaml, read_text, validation_error
 from mmplan.scenario.rates import rates_dict, resolve_rates
 from mmplan.scenario.schema import GoalSpec, LimitsSpec, ScenarioSpec
 from mmplan.scene import Obstacle, Scene, obstacle_from_dict
@@ -52,20 +53,17 @@ def load_scenario(name_or_path: str | Path, *, require_planner: bool = True,
             accepted (``mmplan check`` then reports it as a failed check instead).
 
     Raises:
-        ScenarioError: the file is missing, not YAML, or fails validation.
+        ScenarioError: the file is missing, larger than 10 MB, not YAML, or fails validation.
     """
     path = Path(name_or_path)
     source = str(name_or_path)
-    if not path.is_file():
+    if not _is_file(path):
         builtins = builtin_scenarios()
         if source not in builtins:
             raise ScenarioError(source, "", "no such file and no built-in scenario of that name; "
                                 f"built-ins: {', '.join(builtins) or 'none'}")
         path = builtins[source]
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(source, "", f"cannot read: {exc}") from None
+    text = read_text(path, source)  # at most MAX_FILE_BYTES, UTF-8
     return Scenario.from_dict(parse_yaml(text, source), source, require_planner=require_planner,
                               check_start=check_start)
 
@@ -78,16 +76,21 @@ def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
     """
     source = str(name_or_path)
     path = builtin_scenarios().get(source, Path(name_or_path))
-    try:
-        data = parse_yaml(path.read_text(encoding="utf-8"), source)
-    except OSError as exc:
-        raise ScenarioError(source, "", f"cannot read: {exc.strerror or exc}") from None
+    data = parse_yaml(read_text(path, source), source)
     planner = data.get("planner")
     method = planner.get("method") if isinstance(planner, dict) else None
     robot = data.get("robot")
     if not isinstance(robot, str) or not isinstance(method, str):
         raise ScenarioError(source, "", "needs robot and planner.method")
     return robot, method
+
+
+def _is_file(path: Path) -> bool:
+    """``path.is_file()``, False for a name the system refuses (too long, bad bytes)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
 
 
 class Scenario:

@@ -85,7 +85,8 @@ def _override(rates: RateLimits, kind: str, spec: RateLimitsSpec | None,
             sources[field] = SCENARIO_SOURCE
     if spec is None:
         sources = {k: v for k, v in sources.items() if not k.startswith(f"{kind}.")}
-    return replace(rates, **{kind: bounds}, **platform, sources=sources)
+    changes: dict[str, Any] = {kind: bounds, **platform, "sources": sources}
+    return replace(rates, **changes)
 
 
 def _checked(values: Mapping[str, float | None], kind: str,

@@ -40,6 +40,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.robot.limits import RateLimits
+from mmplan.robot.tree import JointKind
 
 if TYPE_CHECKING:
     from mmplan.robot.robot import Robot
@@ -49,6 +50,8 @@ if TYPE_CHECKING:
 POLYGON_SIDES = 12
 #: Relative slack of the sample verdict (rounding of sqrt(x) q' against the bound).
 REL_TOL = 1e-9
+#: Relative slack of the step means (secants of q, differences of dq) in the verdict.
+INTERVAL_TOL = 1e-2
 
 Kind = Literal["velocity", "acceleration"]
 
@@ -73,7 +76,11 @@ class Quantity:
 
 @dataclass(frozen=True)
 class RateViolation:
-    """The first sample at which a quantity exceeds its limit."""
+    """The first sample (or step) at which a quantity exceeds its limit.
+
+    ``until`` is None for a sample; for a step [t, until] the value is its mean (the secant of
+    q for a velocity, the difference of dq for an acceleration).
+    """
 
     quantity: Quantity
     value: float
@@ -81,17 +88,18 @@ class RateViolation:
     worst: float
     worst_t: float
     samples: int
+    until: float | None = None
 
     @property
     def message(self) -> str:
         """One line: what needs how much, when, against which limit."""
         q = self.quantity
-        text = (
-            f"{q.label} needs {self.value:.3g} {q.unit} at t = {self.t:.2f} s, "
-            f"limit {q.limit:.3g}"
-        )
+        when = (f"at t = {self.t:.2f} s" if self.until is None
+                else f"on average over t = {self.t:.2f} .. {self.until:.2f} s")  # fmt: skip
+        text = f"{q.label} needs {self.value:.3g} {q.unit} {when}, limit {q.limit:.3g}"
         if self.samples > 1:
-            text += f" ({self.samples} samples, peak {self.worst:.3g} at t = {self.worst_t:.2f} s)"
+            what = "samples" if self.until is None else "steps"
+            text += f" ({self.samples} {what}, peak {self.worst:.3g} at t = {self.worst_t:.2f} s)"
         return text
 
 
@@ -104,6 +112,7 @@ class PathRates:
         alpha, beta, g: Acceleration rows (N, m) in the form of :mod:`.topp`.
         lo, hi: Their bounds (m,).
         labels: What each row limits (m,).
+        quantity: Index in :attr:`RateModel.quantities` of the quantity of each row (m,).
     """
 
     x_upper: Array
@@ -113,6 +122,7 @@ class PathRates:
     lo: Array
     hi: Array
     labels: tuple[str, ...]
+    quantity: tuple[int, ...]
 
 
 @dataclass(frozen=True)
@@ -125,8 +135,6 @@ class RateModel:
     @classmethod
     def of(cls, robot: Robot) -> RateModel:
         """The rate limits ``robot.limits.rates`` on ``robot``'s coordinates."""
-        from mmplan.robot.tree import JointKind
-
         linear = {j.coordinate for j in robot.tree.joints if j.kind is JointKind.PRISMATIC}
         planar = (0, 1, 2) if robot.n_platform >= 3 else None
         return cls.build(robot.coordinates, robot.limits.rates, planar,
@@ -193,8 +201,8 @@ class RateModel:
         (N, n) (module docstring)."""
         N = len(dq_ds)
         x_upper = np.full(N, np.inf)
-        alpha, beta, bound, labels = [], [], [], []
-        for q in self.quantities:
+        alpha, beta, bound, labels, owner = [], [], [], [], []
+        for iq, q in enumerate(self.quantities):
             if q.kind == "velocity":
                 speed2 = np.sum(np.square(dq_ds[:, list(q.index)]), axis=1)
                 with np.errstate(divide="ignore"):
@@ -205,6 +213,7 @@ class RateModel:
                 beta.append(dq_ds[:, q.index[0]])
                 bound.append(q.limit)
                 labels.append(q.label)
+                owner.append(iq)
             else:
                 i, j = q.index
                 for k in range(POLYGON_SIDES // 2):
@@ -215,48 +224,84 @@ class RateModel:
                     beta.append(c * dq_ds[:, i] + s * dq_ds[:, j])
                     bound.append(q.limit * math.cos(math.pi / POLYGON_SIDES))
                     labels.append(f"{q.label} (side {k + 1})")
+                    owner.append(iq)
         m = len(bound)
         a = np.column_stack(alpha) if m else np.zeros((N, 0))
         b = np.column_stack(beta) if m else np.zeros((N, 0))
         hi = np.asarray(bound, dtype=float)
-        return PathRates(x_upper, a, b, np.zeros((N, m)), -hi, hi, tuple(labels))
+        return PathRates(x_upper, a, b, np.zeros((N, m)), -hi, hi, tuple(labels), tuple(owner))
 
     def ratios(self, dq: Array, ddq: Array) -> Array:
         """value / limit of every quantity at every sample, (N, len(quantities))."""
         if not self.quantities:
             return np.zeros((len(dq), 0))
-        return np.column_stack([q.values(dq, ddq) / q.limit for q in self.quantities])
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero limit: inf or NaN
+            return np.column_stack([q.values(dq, ddq) / q.limit for q in self.quantities])
 
-    def first_violation(self, t: Array, dq: Array, ddq: Array) -> RateViolation | None:
-        """The earliest sample at which a quantity exceeds its limit (beyond :data:`REL_TOL`
-        and NaN counting as exceeding), None when every limit holds."""
+    def interval_ratios(self, t: Array, q: Array, dq: Array) -> Array:
+        """Mean over each step / limit, (N - 1, len(quantities)): velocities from the secants
+        of q, accelerations from the differences of dq (what a controller interpolating the
+        samples linearly commands; 0 on a step of infinite length)."""
+        if not self.quantities or len(t) < 2:
+            return np.zeros((max(len(t) - 1, 0), len(self.quantities)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.where(np.isfinite(np.diff(t)), 1.0 / np.diff(t), 0.0)
+        out = []
+        for qt in self.quantities:
+            d = np.diff((q if qt.kind == "velocity" else dq)[:, list(qt.index)], axis=0)
+            out.append(np.sqrt(np.sum(d * d, axis=1)) * inv / qt.limit)
+        return np.column_stack(out)
+
+    def first_violation(
+        self, t: Array, dq: Array, ddq: Array, q: Array | None = None
+    ) -> RateViolation | None:
+        """The earliest sample at which a quantity exceeds its limit (beyond :data:`REL_TOL`,
+        NaN counting as exceeding); when none and ``q`` is given, the earliest step whose mean
+        (:meth:`interval_ratios`) exceeds it beyond :data:`INTERVAL_TOL`. None when every
+        limit holds."""
         r = self.ratios(dq, ddq)
-        bad = ~(r <= 1.0 + REL_TOL)
-        if not bad.any():
+        found = _first(r, REL_TOL)
+        if found is not None:
+            k, j, count, worst = found
+            qt = self.quantities[j]
+            return RateViolation(qt, float(r[k, j] * qt.limit), float(t[k]),
+                                 float(r[worst, j] * qt.limit), float(t[worst]), count)  # fmt: skip
+        if q is None:
             return None
-        k = int(np.argmax(bad.any(axis=1)))
-        j = int(np.argmax(bad[k]))
-        q = self.quantities[j]
-        col = np.where(np.isnan(r[:, j]), np.inf, r[:, j])
-        w = int(np.argmax(col))
-        return RateViolation(
-            q,
-            float(r[k, j] * q.limit),
-            float(t[k]),
-            float(col[w] * q.limit),
-            float(t[w]),
-            int(bad[:, j].sum()),
-        )
+        m = self.interval_ratios(t, q, dq)
+        found = _first(m, INTERVAL_TOL)
+        if found is None:
+            return None
+        k, j, count, worst = found
+        qt = self.quantities[j]
+        return RateViolation(qt, float(m[k, j] * qt.limit), float(t[k]),
+                             float(m[worst, j] * qt.limit), float(t[worst]), count,
+                             float(t[k + 1]))  # fmt: skip
 
-    def stretch(self, dq: Array, ddq: Array) -> float:
+    def stretch(self, t: Array, q: Array, dq: Array, ddq: Array) -> float:
         """Smallest factor c >= 1 such that the uniform re-timing t -> c t (dq / c, ddq / c^2)
-        keeps every limit: max(1, velocity ratios, sqrt(acceleration ratios)); inf if some
-        limit is zero while its quantity moves (or NaN)."""
-        c = 1.0
-        for q in self.quantities:
-            peak = float(np.max(q.values(dq, ddq), initial=0.0))
-            if np.isnan(peak):
-                return math.inf
-            ratio = peak / q.limit if q.limit > 0 else (math.inf if peak > 0 else 0.0)
-            c = max(c, ratio if q.kind == "velocity" else math.sqrt(ratio))
-        return c
+        keeps every limit at the samples and on the step means (which scale alike):
+        max(1, velocity ratios, sqrt(acceleration ratios)); inf when a ratio is not finite
+        (NaN, or a zero limit on a quantity that moves)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            both = np.vstack([self.ratios(dq, ddq), self.interval_ratios(t, q, dq)])
+        if both.size == 0:
+            return 1.0
+        peak = np.max(np.where(np.isnan(both), np.inf, both), axis=0)
+        if not np.all(np.isfinite(peak)):
+            return math.inf
+        velocity = np.array([qt.kind == "velocity" for qt in self.quantities])
+        need = np.where(velocity, peak, np.sqrt(peak))
+        return float(max(1.0, need.max()))
+
+
+def _first(ratios: Array, tol: float) -> tuple[int, int, int, int] | None:
+    """(row, column, count of bad rows in that column, its worst row) of the first entry of
+    ``ratios`` above 1 + tol (NaN counts), None when there is none."""
+    bad = ~(ratios <= 1.0 + tol)
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad.any(axis=1)))
+    j = int(np.argmax(bad[k]))
+    col = np.where(np.isnan(ratios[:, j]), np.inf, ratios[:, j])
+    return k, j, int(bad[:, j].sum()), int(np.argmax(col))

@@ -17,12 +17,14 @@ Pass criteria (:meth:`CheckReport.failures` names each one that fails):
   with :math:`\max_i r_i \le` ``DQ_REL_TOL`` :math:`\cdot \max(\max|\dot q|, 10^{-3})`;
   ddq vs dq likewise (reported, not a pass criterion: kinematic planners may have jumps);
 * status ``reached`` exactly when the task is completed (T(tol) exists and the trajectory
-  covers the task: a path's duration, a segment's parameter 1).
+  covers the task: a path's duration, a segment's parameter 1);
+* velocity and acceleration limits at every sample, on the dq/ddq columns (slack 1e-6
+  relative) and on finite differences of q and dq (1 %), :mod:`.rates`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import casadi as ca
@@ -32,8 +34,10 @@ from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.problem import Problem
 from mmplan.robot import Robot
+from mmplan.robot.tree import JointKind
 from mmplan.task import DrawSegment, Task, TrackPath, completion_time
 from mmplan.trajectory import Trajectory
+from mmplan.verify.rates import RateReport, check_rates
 
 EE_TOL = 1e-6  # [m]
 LIMIT_TOL = 1e-9  # [rad or m]
@@ -72,6 +76,7 @@ class CheckReport:
         task_completed: T(tol) exists and the trajectory covers the task.
         manipulability_start, manipulability_end, manipulability_min: mu along the run.
         status: The status claimed by the planner (None when not given).
+        rates: Peaks of velocities and accelerations and the checks of their limits.
     """
 
     robot: str
@@ -102,6 +107,7 @@ class CheckReport:
     manipulability_end: float
     manipulability_min: float
     status: str | None = None
+    rates: RateReport = field(default_factory=RateReport)
 
     @property
     def ok(self) -> bool:
@@ -134,10 +140,11 @@ class CheckReport:
             done = "completed" if self.task_completed else "not completed"
             out.append(f"status: planner says {self.status!r} but the task is {done} "
                        f"(final error {self.final_error_m:.3g} m, tolerance {self.tolerance:g} m)")
-        return out
+        return out + self.rates.failures()
 
     def summary(self, *, status: str, planner: str, compute_time_s: float) -> dict[str, Any]:
         """summary.json content (docs/conventions.md keys, in order) with the run's own fields."""
+        r = self.rates
         return {
             "status": status,
             "planner": planner,
@@ -155,6 +162,13 @@ class CheckReport:
             "manipulability_min": self.manipulability_min,
             "compute_time_s": compute_time_s,
             "samples": self.samples,
+            "peak_platform_speed_mps": r.peak_platform_speed_mps,
+            "peak_platform_yaw_rate_radps": r.peak_platform_yaw_rate_radps,
+            "peak_platform_acceleration_mps2": r.peak_platform_acceleration_mps2,
+            "peak_platform_yaw_acceleration_radps2": r.peak_platform_yaw_acceleration_radps2,
+            "peak_velocity": dict(r.peak_velocity),
+            "peak_acceleration": dict(r.peak_acceleration),
+            "limit_margins": r.limit_margins,
         }
 
 
@@ -247,6 +261,10 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
     end = _task_end(task)
     completed = t_tol is not None and (end is None or t[-1] >= end - 1e-9)
     mu = _mapped(robot, "manipulability", q).reshape(N)
+    units = {j.coordinate: "m" if j.kind is JointKind.PRISMATIC else "rad"
+             for j in robot.tree.joints if j.coordinate is not None}
+    rates = check_rates(t, q, dq, ddq, robot.coordinates, lim.rates, units,
+                        timed=not isinstance(task, DrawSegment))  # a segment's t is s in [0, 1]
     return CheckReport(
         robot=robot.name, samples=N, finite=tr.is_finite(), ee_deviation_m=ee_dev,
         min_clearance_m=clearance, clearance_where=clearance_where,
@@ -262,6 +280,7 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
         final_error_m=float(errors[-1]), tolerance=tol, task_completed=bool(completed),
         manipulability_start=float(mu[0]), manipulability_end=float(mu[-1]),
         manipulability_min=float(np.min(mu)), status=None if status is None else str(status),
+        rates=rates,
     )
 
 

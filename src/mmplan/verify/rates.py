@@ -29,12 +29,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
+from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.robot import RateLimits
-
-Array = NDArray[np.float64]
 
 RATE_REL_TOL = 1e-6  # relative slack on the dq, ddq columns
 FD_REL_TOL = 1e-2  # relative slack on the finite-difference rates (as DQ_REL_TOL)
@@ -66,18 +64,21 @@ class RateCheck:
     fd_time: float
 
     def failures(self) -> list[str]:
-        """A line per broken bound (columns, finite differences), naming value, limit, time."""
-        out = []
+        """The broken bound, naming value, limit and time ([] when within).
+
+        The columns' line when they break the limit, else the finite differences' line when
+        they do (the columns understate the motion).
+        """
         what = f"{self.label} = {{:.4g}} {self.unit} > limit {self.limit:.4g} {self.unit}"
         if not self.peak <= self.limit * (1 + RATE_REL_TOL):
-            out.append(f"rate limits: {what.format(self.peak)} at t = {self.peak_time:.4g} s")
+            return [f"rate limits: {what.format(self.peak)} at t = {self.peak_time:.4g} s"]
         if not self.fd_peak <= self.limit * (1 + FD_REL_TOL):
             source = "q" if self.key.startswith(("velocity", "platform_speed",
                                                  "platform_yaw_rate")) else "dq"
-            out.append(f"rate limits: {what.format(self.fd_peak)} + {FD_REL_TOL:.0%} from "
-                       f"finite differences of {source} at t = {self.fd_time:.4g} s "
-                       f"(the dq/ddq columns understate it)")
-        return out
+            return [f"rate limits: {what.format(self.fd_peak)} + {FD_REL_TOL:.0%} from "
+                    f"finite differences of {source} at t = {self.fd_time:.4g} s "
+                    f"(the dq/ddq columns understate it)"]
+        return []
 
 
 @dataclass(frozen=True)
@@ -126,7 +127,8 @@ def _peak(values: Array, t: Array) -> tuple[float, float]:
 
 
 def check_rates(t: Array, q: Array, dq: Array, ddq: Array, coordinates: tuple[str, ...],
-                limits: RateLimits, timed: bool = True) -> RateReport:
+                limits: RateLimits, units: Mapping[str, str] | None = None,
+                timed: bool = True) -> RateReport:
     """Peaks and limit checks of the rates of one trajectory (module doc).
 
     Args:
@@ -134,6 +136,7 @@ def check_rates(t: Array, q: Array, dq: Array, ddq: Array, coordinates: tuple[st
         q, dq, ddq: Columns (N, n) in ``coordinates`` order; the first three are x, y, heading.
         coordinates: Coordinate names.
         limits: The limits to check.
+        units: Unit of each coordinate, ``"m"`` or ``"rad"`` (default ``"rad"``).
         timed: False when ``t`` is a path parameter, not time.
 
     Raises:
@@ -164,12 +167,12 @@ def check_rates(t: Array, q: Array, dq: Array, ddq: Array, coordinates: tuple[st
          limits.platform_yaw_acceleration, np.abs(ddq[:, 2]), np.abs(fd_a[:, 2])),
     ]
     for j, name in enumerate(coordinates):
-        unit = "m/s" if name in ("x", "y") else "rad/s or m/s"
-        for kind, label, col, fd, suffix in (("velocity", "|dq|", dq, fd_v, ""),
-                                              ("acceleration", "|ddq|", ddq, fd_a, "^2")):
+        unit = (units or {}).get(name, "rad")
+        for kind, label, col, fd, per in (("velocity", "|dq|", dq, fd_v, "/s"),
+                                           ("acceleration", "|ddq|", ddq, fd_a, "/s^2")):
             bound = getattr(limits, kind).get(name, math.inf)
-            rows.append((f"{kind}.{name}", f"{label} {name}", _unit(name, unit) + suffix,
-                         bound, np.abs(col[:, j]), np.abs(fd[:, j])))
+            rows.append((f"{kind}.{name}", f"{label} {name}", unit + per, bound,
+                         np.abs(col[:, j]), np.abs(fd[:, j])))
     checks = []
     for key, label, unit, limit, values, fd_values in rows:
         if math.isfinite(limit):
@@ -185,10 +188,6 @@ def check_rates(t: Array, q: Array, dq: Array, ddq: Array, coordinates: tuple[st
         peak_platform_yaw_acceleration_radps2=_peak(rows[3][4], t)[0],
         checks=tuple(checks),
     )
-
-
-def _unit(name: str, default: str) -> str:
-    return default
 
 
 def _finite_keys(limits: RateLimits) -> list[str]:

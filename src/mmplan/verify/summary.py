@@ -25,7 +25,11 @@ NUMERIC_KEYS = (
     "duration_s", "duration_1cm_s", "duration_1mm_s", "final_error_m", "min_clearance_m",
     "max_joint_limit_violation", "max_torque_violation", "max_pfaffian_residual",
     "manipulability_start", "manipulability_end", "manipulability_min",
+    "peak_platform_speed_mps", "peak_platform_yaw_rate_radps", "peak_platform_acceleration_mps2",
+    "peak_platform_yaw_acceleration_radps2",
 )
+#: Contract keys holding a mapping name -> number (every entry recomputed, no entry missing).
+MAPPING_KEYS = ("peak_velocity", "peak_acceleration", "limit_margins")
 STATUSES = tuple(s.value for s in Status)
 
 
@@ -51,6 +55,19 @@ def _finite_or_none(value: float | None) -> float | None:
     return value if value is None or math.isfinite(value) else None
 
 
+def _disagreement(key: str, claimed: Any, recomputed: float | None) -> list[str]:
+    """[] when the claimed JSON value agrees with the recomputed one, else one line."""
+    value = _number(claimed)
+    expected = _finite_or_none(recomputed)
+    if isinstance(value, str):
+        return [f"summary {key}: {value}"]
+    if _agree(value, expected):
+        return []
+    shown = "null" if value is None else f"{value:.6g}"
+    again = "null" if expected is None else f"{expected:.6g}"
+    return [f"summary {key}: {shown} but recomputed {again}"]
+
+
 def summary_disagreements(claimed: Mapping[str, Any], report: CheckReport,
                           planner: str) -> list[str]:
     """One line per summary.json key that disagrees with the recomputed ``report``.
@@ -71,18 +88,23 @@ def summary_disagreements(claimed: Mapping[str, Any], report: CheckReport,
     samples = claimed.get("samples")
     if isinstance(samples, bool) or samples != report.samples:
         out.append(f"summary samples: {samples!r} but trajectory.csv has {report.samples}")
+    recomputed = report.summary(status="", planner=planner, compute_time_s=0.0)
     for key in NUMERIC_KEYS:
         if key not in claimed:
             out.append(f"summary {key}: missing")
             continue
-        value = _number(claimed[key])
-        expected = _finite_or_none(getattr(report, key))
-        if isinstance(value, str):
-            out.append(f"summary {key}: {value}")
-        elif not _agree(value, expected):
-            shown = "null" if value is None else f"{value:.6g}"
-            again = "null" if expected is None else f"{expected:.6g}"
-            out.append(f"summary {key}: {shown} but recomputed {again}")
+        out += _disagreement(key, claimed[key], recomputed[key])
+    for key in MAPPING_KEYS:
+        value, expected = claimed.get(key), recomputed[key]
+        if not isinstance(value, Mapping):
+            out.append(f"summary {key}: " + ("missing" if key not in claimed else
+                                             f"not a mapping ({type(value).__name__})"))
+            continue
+        if set(value) != set(expected):
+            out.append(f"summary {key}: names {sorted(value)} but recomputed {sorted(expected)}")
+            continue
+        for name in expected:
+            out += _disagreement(f"{key}.{name}", value[name], expected[name])
     passed = claimed.get("check_passed")
     if passed is True and not report.ok:
         out.append("summary check_passed: true but the recomputed checks fail")

@@ -8,6 +8,7 @@ package; test_scenarios.py runs the scenario files with the real scene.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import casadi as ca
@@ -22,7 +23,7 @@ from mmplan.planners.extended_jacobian.settings import (
 )
 from mmplan.problem import Problem
 from mmplan.robot.library import get_robot
-from mmplan.robot.limits import Limits
+from mmplan.robot.limits import Limits, RateLimits
 from mmplan.robot.robot import Robot
 from mmplan.task import ReachPoint, completion_time
 from mmplan.trajectory import PlanResult, Status
@@ -69,6 +70,12 @@ class BlobScene:
         return np.column_stack(cols) if cols else np.zeros((len(points), 0))
 
 
+def _paper_robot(name: str) -> Robot:
+    """A built-in robot without velocity and acceleration limits (the papers' robots)."""
+    robot = get_robot(name)
+    return robot.with_limits(dataclasses.replace(robot.limits, rates=RateLimits()))
+
+
 def _plan(
     robot: Robot,
     start: np.ndarray,
@@ -90,12 +97,12 @@ def _wheel_limited(robot: Robot, limit: float) -> Robot:
 
 @pytest.fixture(scope="module")
 def youbot4r_plain() -> PlanResult:
-    return _plan(get_robot("youbot-4r"), Q0_4R, (2.0, 1.0, 0.3), dt=0.005, t_max=30)
+    return _plan(_paper_robot("youbot-4r"), Q0_4R, (2.0, 1.0, 0.3), dt=0.005, t_max=30)
 
 
 @pytest.fixture(scope="module")
 def youbot4r_smooth() -> PlanResult:
-    robot = _wheel_limited(get_robot("youbot-4r"), 0.2)
+    robot = _wheel_limited(_paper_robot("youbot-4r"), 0.2)
     vcs = VirtualControlSettings(growth="distance", eps_tau=0.1)
     return _plan(robot, Q0_4R, (2.0, 1.0, 0.3), dt=0.005, t_max=30, virtual_control=vcs)
 
@@ -108,7 +115,7 @@ def _pfaffian_residual(robot: Robot, result: PlanResult) -> float:
 
 
 def test_youbot4r_plain_generator_reaches_goal_like_reference(youbot4r_plain: PlanResult) -> None:
-    robot, tr = get_robot("youbot-4r"), youbot4r_plain.trajectory
+    robot, tr = _paper_robot("youbot-4r"), youbot4r_plain.trajectory
     assert youbot4r_plain.status is Status.REACHED
     err = np.linalg.norm(tr.ee - np.array([2.0, 1.0, 0.3]), axis=1)
     assert err[-1] < 1e-3
@@ -133,7 +140,7 @@ def test_youbot4r_plain_generator_reaches_goal_like_reference(youbot4r_plain: Pl
 def test_youbot4r_smooth_virtual_control(
     youbot4r_plain: PlanResult, youbot4r_smooth: PlanResult
 ) -> None:
-    robot = get_robot("youbot-4r")
+    robot = _paper_robot("youbot-4r")
     tr, plain = youbot4r_smooth.trajectory, youbot4r_plain.trajectory
     assert youbot4r_smooth.status is Status.REACHED
     assert tr.tau is not None and tr.u is not None and plain.tau is not None
@@ -166,7 +173,7 @@ def _paper000_scene() -> BlobScene:
 
 def test_youbot3r_obstacles_torque_start_keeps_limits() -> None:
     """The start lies inside obstacle 1's neighbourhood: the push must fit the torque budget."""
-    robot = get_robot("youbot-3r")
+    robot = _paper_robot("youbot-3r")
     result = _plan(
         robot,
         Q0_3R,
@@ -199,7 +206,7 @@ def test_youbot3r_obstacles_torque_start_keeps_limits() -> None:
 
 
 def test_stalled_status_and_partial_trajectory() -> None:
-    robot = get_robot("youbot-4r")
+    robot = _paper_robot("youbot-4r")
     result = _plan(
         robot,
         Q0_4R,
@@ -228,12 +235,12 @@ def test_bad_input_is_rejected_before_planning(
     start: np.ndarray, goal: tuple[float, float, float], field: str
 ) -> None:
     with pytest.raises(InputError) as info:
-        _plan(get_robot("youbot-3r"), start, goal)
+        _plan(_paper_robot("youbot-3r"), start, goal)
     assert info.value.field == field
 
 
 def test_start_in_collision_and_infeasible_torques_are_rejected() -> None:
-    robot = get_robot("youbot-3r")
+    robot = _paper_robot("youbot-3r")
     on_platform = BlobScene([Blob((0.0, -0.5, 0.1), (0.1, 0.1, 0.1), None)])
     with pytest.raises(InputError, match="collision"):
         _plan(robot, Q0_3R, (3.5, 4.0, 0.16), on_platform)
@@ -248,7 +255,7 @@ def test_start_in_collision_and_infeasible_torques_are_rejected() -> None:
 
 def test_time_mode_keeps_limits_on_the_unconstrained_path() -> None:
     """Time mode (mmplan.time_scaling.topp): same path as without limits, efforts in the zone."""
-    robot = get_robot("youbot-3r")
+    robot = _paper_robot("youbot-3r")
     free = _plan(
         robot.with_limits(
             Limits(
@@ -291,7 +298,7 @@ def test_time_mode_keeps_limits_on_the_unconstrained_path() -> None:
 
 def test_online_step_matches_the_planned_rollout() -> None:
     """ExtendedJacobian().online(problem).step(q, dq) gives the rollout's ddq, tau and u."""
-    robot = _wheel_limited(get_robot("youbot-4r"), 0.2)
+    robot = _wheel_limited(_paper_robot("youbot-4r"), 0.2)
     settings = ExtendedJacobianSettings.model_validate(
         {"dt": 0.005, "t_max": 0.3, "virtual_control": {"growth": "distance"}}
     )
@@ -317,7 +324,7 @@ def test_goal_near_an_obstacle_shrinks_its_neighbourhood_and_inside_is_rejected(
     assert far[0].influence == 0.35
     with pytest.raises(InputError) as info:
         _plan(
-            get_robot("youbot-3r"),
+            _paper_robot("youbot-3r"),
             Q0_3R,
             (3.5, 4.0, 0.16),
             BlobScene([Blob((3.5, 4.0, 0.1), (0.1, 0.1, 0.1), None)]),
@@ -386,7 +393,7 @@ def test_symbolic_virtual_control_choice_matches_numpy_cases() -> None:
 
 def test_online_step_is_one_call_that_matches_the_numpy_decision() -> None:
     """The online function (decision_symbolic) gives decide()'s ddq, tau, u along a rollout."""
-    robot = _wheel_limited(get_robot("youbot-4r"), 0.2)
+    robot = _wheel_limited(_paper_robot("youbot-4r"), 0.2)
     settings = ExtendedJacobianSettings.model_validate({"dt": 0.005, "t_max": 0.2})
     problem = Problem(robot, BlobScene([]), ReachPoint((2.0, 1.0, 0.3), 1e-3), Q0_4R, settings)  # type: ignore[arg-type]
     from mmplan.planners.extended_jacobian.generator import wheel_metric_inverse

@@ -1,4 +1,5 @@
-"""The four extended-Jacobian scenario files load, validate and plan with the real scene.
+"""The extended-Jacobian scenario files load, validate and plan with the real scene: the four
+paper tasks within the youBot's real rate limits and their ``-unlimited`` paper variants.
 
 Full runs of the youbot-3r scenarios take about 6000 steps; here they run a short horizon
 (the full runs, with their figures, are in bench/bench_extended_jacobian.py).
@@ -16,18 +17,23 @@ from mmplan.scenario.loader import load_scenario
 from mmplan.task import ReachPoint
 from mmplan.trajectory import Status
 
-NAMES = (
+TASKS = (
     "youbot4r-reach",
     "youbot4r-reach-smooth",
     "youbot3r-obstacles",
     "youbot3r-obstacles-torque",
 )
+NAMES = TASKS + tuple(f"{t}-unlimited" for t in TASKS)
 
 
 @pytest.mark.parametrize("name", NAMES)
 def test_scenario_files_load(name: str) -> None:
     scenario = load_scenario(name)
     problem = scenario.build()
+    assert problem.robot.limits.rates.any is not name.endswith("-unlimited")
+    if not name.endswith("-unlimited"):
+        assert problem.robot.limits.rates.platform_speed == 0.8  # the youBot's data sheet
+    name = name.removesuffix("-unlimited")
     settings = problem.settings
     assert isinstance(settings, ExtendedJacobianSettings)
     assert isinstance(problem.task, ReachPoint) and problem.task.tolerance == 1e-3
@@ -42,6 +48,18 @@ def test_scenario_files_load(name: str) -> None:
         assert not robot.limits.has_torque_limits
     if name.startswith("youbot3r"):
         assert [ob.influence for ob in problem.scene.obstacles] == [0.35, 0.15, 0.35]
+
+
+@pytest.mark.parametrize("name", TASKS)
+def test_unlimited_variant_is_the_same_task_without_rate_limits(name: str) -> None:
+    """Same resolved scenario but for the name and the velocity/acceleration limits."""
+    limited = load_scenario(name).resolved_dict()
+    paper = load_scenario(f"{name}-unlimited").resolved_dict()
+    assert paper.pop("name") == f"{name}-unlimited" and limited.pop("name") == name
+    for d in (limited, paper):
+        d["limits"].pop("velocity", None)
+        d["limits"].pop("acceleration", None)
+    assert limited == paper
 
 
 def test_youbot3r_obstacles_torque_file_first_seconds() -> None:

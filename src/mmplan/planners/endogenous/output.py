@@ -23,6 +23,7 @@ Columns ``u1``, ``u2``, ... hold the platform controls.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
@@ -87,6 +88,19 @@ def blend(t: Array, horizon: float) -> tuple[Array, Array, Array]:
     ds = 30 * tau**2 * (1 - tau) ** 2 / horizon
     dds = 60 * tau * (1 - 3 * tau + 2 * tau**2) / horizon**2
     return s, ds, dds
+
+
+def stretched(traj: Trajectory, factor: float) -> Trajectory:
+    """The same motion re-timed uniformly, t -> factor t: dq / factor, ddq / factor^2 and the
+    platform controls u / factor (exact for the driftless platform, dq_p = G(q_p) u, and for
+    the arm's blend, which scales with the horizon)."""
+    return dataclasses.replace(
+        traj,
+        t=traj.t * factor,
+        dq=traj.dq / factor,
+        ddq=traj.ddq / factor**2,
+        extra={k: v / factor for k, v in traj.extra.items()},
+    )
 
 
 def build_trajectory(

@@ -28,6 +28,14 @@ Scenario form (docs/conventions.md, docs/endogenous.md)::
       lambda0: [-1, 0.5, -0.5, -0.2, 0.1, 0.1, 0.01, 0.01]
       bounds: [{coordinate: psi, min: -1.0472, max: 1.0472}]   # any coordinate, optional
 
+Rate limits (``robot.limits.rates``): the plan is re-timed uniformly, t -> c t with the
+smallest c >= 1 that keeps every velocity and acceleration limit at the samples and on the
+step means (:meth:`~mmplan.time_scaling.rates.RateModel.stretch`). For the driftless platform
+(dq_p = G(q_p) u) and the arm's blend this is exact: the same path, the same end point, the
+horizon c T and the controls u / c (a Fourier series on [0, c T] with coefficients lambda / c).
+A plan that would need a horizon above ``t_max``, or an unbounded c (a zero limit on a moving
+coordinate), is ``infeasible``; info ``time_scale`` (c) and ``horizon_s`` (c T).
+
 Stop: |e_task| < tolerance (default the goal tolerance) and |bound outputs| < bound_tolerance
 (default the same). Status: ``reached``; ``stalled`` (singular Jacobian, or no convergence
 within ``max_iterations``: the message says which and gives the smallest singular value or the
@@ -52,10 +60,11 @@ from mmplan.planners.base import Planner, register
 from mmplan.planners.endogenous.cache import get_model
 from mmplan.planners.endogenous.checks import check_problem
 from mmplan.planners.endogenous.model import EndogenousModel
-from mmplan.planners.endogenous.output import ArmBox, build_trajectory, wrap_arm
+from mmplan.planners.endogenous.output import ArmBox, build_trajectory, stretched, wrap_arm
 from mmplan.planners.endogenous.settings import EndogenousSettings
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint
+from mmplan.time_scaling.rates import RateModel
 from mmplan.trajectory import Solution, Status
 
 
@@ -243,8 +252,26 @@ def _result(
             f"[{limits.joint_min[outside[0]]:.4g}, {limits.joint_max[outside[0]]:.4g}]: "
             "add a planner bound on it"
         )
+    lam, factor = run.lam, 1.0
+    if robot.limits.rates.any:
+        factor = RateModel.of(robot).stretch(traj.t, traj.q, traj.dq, traj.ddq)
+        horizon = factor * model.horizon
+        if not np.isfinite(factor) or horizon > settings.t_max:
+            if status is not Status.DIVERGED:
+                status = Status.INFEASIBLE
+            message += (
+                f"; the rate limits need a horizon of {horizon:.4g} s (x{factor:.4g}), above "
+                f"t_max = {settings.t_max:g} s" if np.isfinite(factor) else
+                "; the rate limits cannot be met by any horizon (a zero limit on a moving "
+                "coordinate)"
+            )  # fmt: skip
+        if np.isfinite(factor) and factor > 1.0:
+            traj, lam = stretched(traj, factor), run.lam / factor
+            message += f"; re-timed x{factor:.4g} to T = {horizon:.4g} s for the rate limits"
     info: dict[str, float | int | str] = {
         "backend": model.backend,
+        "time_scale": factor,
+        "horizon_s": float(traj.t[-1]),
         "iterations": len(run.errors) - 1,
         "final_error_m": run.task_errors[-1],
         "error_norm": run.errors[-1],
@@ -270,5 +297,5 @@ def _result(
         message=message,
         info=info,
         history=history,
-        artifacts={"lambda": run.lam, "x": x},
+        artifacts={"lambda": lam, "x": x},
     )

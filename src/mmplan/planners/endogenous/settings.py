@@ -42,8 +42,8 @@ class EndogenousSettings(PlannerSettings):
     method: Literal["endogenous"] = "endogenous"
     t_max: float = Field(
         120.0, gt=0, allow_inf_nan=False,
-        description="not used by this planner: max_iterations is its budget (kept for the "
-        "common settings)",
+        description="longest plan [s] after re-timing for the robot's rate limits (a plan "
+        "that needs a longer horizon is infeasible); max_iterations is the iteration budget",
     )
     horizon: float = Field(1.0, gt=0, le=MAX_HORIZON_S, allow_inf_nan=False,
                            description="control horizon T [s]")

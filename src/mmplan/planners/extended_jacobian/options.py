@@ -12,6 +12,7 @@ from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
 from mmplan.robot.robot import Robot
+from mmplan.time_scaling.rates import RateModel
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,7 @@ class RolloutOptions:
     escape_time: float
     max_escapes: int
     cond_limit: float
+    rates: RateModel | None = None
     cond_every: int = 50
     switch_cond: float = 1e5
     max_switches: int = 4
@@ -53,6 +55,7 @@ class RolloutOptions:
 
         Torque control is on when the robot has torque limits, unless the settings say
         otherwise (``virtual_control.enabled``); the run stops at half the tolerance.
+        ``rates`` holds the robot's velocity and acceleration limits (None when it has none).
         """
         vcs = settings.virtual_control
         limits = robot.limits
@@ -77,4 +80,13 @@ class RolloutOptions:
             escape_time=settings.escape_time,
             max_escapes=settings.max_escapes,
             cond_limit=settings.cond_limit,
+            rates=_rates(robot),
         )
+
+
+def _rates(robot: Robot) -> RateModel | None:
+    """The robot's rate limits, None when none is finite on its coordinates."""
+    if not robot.limits.rates.any:
+        return None
+    model = RateModel.of(robot)
+    return model if model.any else None

@@ -16,6 +16,11 @@ Torque limits, two formulations (``virtual_control.mode``):
   scaling w in [0, 1] keeps every effort in the safety zone (a true time scaling, which
   also slows the velocity terms); default when the scene has obstacles.
 
+Velocity and acceleration limits (``robot.limits.rates``): the plan is always re-timed under
+them (:mod:`~mmplan.planners.extended_jacobian.time_scaling`): in time mode, and without torque
+control, the free generator path is scaled under efforts and rates together; in feedback mode
+the virtual-control plan is re-timed afterwards. The online step does not hold rate limits.
+
 The modules this planner runs, in data-flow order, are listed in
 :mod:`mmplan.planners.extended_jacobian`.
 """
@@ -48,7 +53,7 @@ from mmplan.planners.extended_jacobian.online import OnlineGenerator
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.rollout import rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
-from mmplan.planners.extended_jacobian.time_scaling import rollout_time_scaled
+from mmplan.planners.extended_jacobian.time_scaling import retime, rollout_time_scaled
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint
 from mmplan.trajectory import Solution, Trajectory
@@ -98,6 +103,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             prep.options,
             prep.switch,
         )
+        if not prep.time_scaling and prep.options.rates is not None:
+            res = retime(res, prep.fns, prep.options)
         ee = np.asarray(robot.functions["ee_position"].map(len(res.t))(res.q.T), dtype=float).T
         trajectory = Trajectory(
             coordinates=robot.coordinates,
@@ -109,6 +116,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             actuators=robot.actuators,
             tau=res.tau,
             u=res.u,
+            extra={} if res.w is None else {"w": res.w},
         )
         r_names, f_names = prep.partitions[-1].names(robot)
         info = dict(res.info)
@@ -172,7 +180,10 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         mode = vcs.mode
         if mode == "auto":
             mode = "time" if obstacles else "feedback"
-        time_scaling = options.torque_control and mode == "time"
+        # Rate limits without torque control: the free path, scaled (time mode).
+        time_scaling = (options.torque_control and mode == "time") or (
+            options.rates is not None and not options.torque_control
+        )
         partitions = [partition]
 
         def switch(q: NDArray[np.float64]) -> GeneratorFunctions | None:

@@ -65,6 +65,7 @@ class RolloutResult:
     error: Array
     info: dict[str, Any] = field(default_factory=dict)
     effort: Array | None = None  # [Tm dq, Tg] (N, 2 n_act) when recorded (time scaling)
+    w: Array | None = None  # time rate of a re-timed feedback plan (N,) (time_scaling.retime)
 
 
 def _projector(A: Array, winv: Array) -> Array:

@@ -1,4 +1,4 @@
-r"""Torque limits by a true time scaling of the generator (docs/extended_jacobian.md, time mode).
+r"""Limits by a true time scaling of the generator's path (docs/extended_jacobian.md, time mode).
 
 [PajakPajak] eq. (23) scales only the feedback v2 (and, as printed, the obstacle push) by u: with
 u = 0 the robot coasts on the drift -E^-1 v1, so near an obstacle the limits either cut the
@@ -9,6 +9,23 @@ chosen time-optimally so that every effort stays in the safety zone at every sam
 (:mod:`mmplan.time_scaling.topp`). Velocity terms scale with w^2, so slowing down also scales
 them (unlike u in eq. (23)). The ``u`` column is w: 0 at the start (gravity only, like
 u0 = 0 of [PajakPajak]), 1 where the limits do not bind.
+
+Velocity and acceleration limits (``robot.limits.rates``) are held the same way, exactly at
+every sample (:mod:`mmplan.time_scaling.rates`) and on the mean of every step
+(:mod:`mmplan.time_scaling.retime`): with rate limits the planner always re-times its path.
+Time mode (torque limits with obstacles, or no torque control at all) scales the free
+generator path under efforts and rates together (:func:`rollout_time_scaled`); feedback mode
+keeps its virtual control and re-times the path it produced (:func:`retime`, the
+smooth torque start kept, w in the extra column ``w``).
+
+Start rate. Both paths start at rest (q' = 0), so w_0 does not change dq_0 = 0. Without rate
+limits time mode starts at w_0 = 0 (gravity only, like u0 = 0; the reproduction of
+[PajakPajak] uses it). Then sigma grows like t^2 on the first interval and q like t^4: a motion
+its two end samples represent badly (the trapezoid of dq misses q by a quarter of dq_1 per
+second, 1.7 % of the peak wheel rate with the youBot's rate limits, above the checker's 1 %).
+With rate limits (and after feedback mode) the scaling therefore starts at the largest
+admissible w_0 (efforts within the zone at t = 0): still at rest, and a path that no limit
+binds keeps the generator's timing exactly.
 """
 
 from __future__ import annotations
@@ -18,13 +35,15 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
-from mmplan.time_scaling.topp import time_optimal_scaling
+from mmplan.time_scaling.retime import retime_path
 from mmplan.trajectory import Status
+
+Array = NDArray[np.float64]
 
 
 def rollout_time_scaled(
@@ -36,7 +55,8 @@ def rollout_time_scaled(
     opt: RolloutOptions,
     switch: Callable[[Array], GeneratorFunctions | None] | None = None,
 ) -> RolloutResult:
-    """Unconstrained generator path, then its time-optimal scaling under the torque zone.
+    """Unconstrained generator path, then its time-optimal scaling under the torque zone (with
+    torque control) and the rate limits (when the robot has them), from rest (w_0 = 0).
 
     The efforts' split (T_m, gravity) does not depend on the partition, so ``fns`` serves the
     scaling even when the rollout switched partitions.
@@ -44,37 +64,82 @@ def rollout_time_scaled(
     free = rollout(
         fns, pfaffian, winv, q0, p_f, dataclasses.replace(opt, torque_control=False), switch
     )
-    if free.effort is not None:  # recorded by the compiled chunks
-        a = free.tau.shape[1]
-        beta, g = free.effort[:, :a], free.effort[:, a:]
-    else:
-        beta, g = fns.evaluate_many(free.q, free.dq)  # one call for all samples
-    alpha = free.tau - g
-    lo, hi = opt.zone
-    sc = time_optimal_scaling(free.t, alpha, beta, g, lo, hi)
-    info = dict(free.info)
-    info.update({"generator_duration_s": float(free.t[-1]), "virtual_control": "time"})
+    return scale_path(free, fns, opt, time_mode=True)
+
+
+def retime(path: RolloutResult, fns: GeneratorFunctions, opt: RolloutOptions) -> RolloutResult:
+    """A feedback-mode plan re-timed under the rate limits and the torque zone (module
+    docstring); its ``u`` stays the virtual control, ``w`` is the time rate."""
+    return scale_path(path, fns, opt, time_mode=False)
+
+
+def _effort_split(path: RolloutResult, fns: GeneratorFunctions) -> tuple[Array, Array]:
+    """beta = T_m q' and tau_g at every sample of ``path`` (N, n_act)."""
+    if path.effort is not None:  # recorded by the compiled chunks
+        a = path.tau.shape[1]
+        return path.effort[:, :a], path.effort[:, a:]
+    return fns.evaluate_many(path.q, path.dq)  # one call for all samples
+
+
+def scale_path(
+    path: RolloutResult, fns: GeneratorFunctions, opt: RolloutOptions, time_mode: bool
+) -> RolloutResult:
+    """Time-optimal scaling (w <= 1) of ``path`` (its dq, ddq are q', q'' in its own time,
+    from rest) under the safety zone of the efforts (when ``opt.torque_control``) and the rate
+    limits; w_0 as the module docstring says.
+
+    Args:
+        time_mode: ``u`` is w (time mode); else ``u`` stays the path's virtual control and
+            w is returned apart.
+    """
+    beta, g = _effort_split(path, fns)
+    alpha = path.tau - g
+    n_act = alpha.shape[1]
+    lo, hi = opt.zone if opt.torque_control else (np.full(n_act, -np.inf), np.full(n_act, np.inf))
+    timed = retime_path(
+        path.t, path.q, path.dq, path.ddq, opt.rates, (alpha, beta, g, lo, hi),
+        x_start=0.0 if time_mode and opt.rates is None else None,
+    )  # fmt: skip
+    sc = timed.scaling
+    info = dict(path.info)
+    info["generator_duration_s"] = float(path.t[-1])
+    if time_mode:
+        info["virtual_control"] = "time"
+    info["time_scaling"] = "+".join(
+        k for k, on in (("torque", opt.torque_control), ("rates", opt.rates is not None)) if on
+    )
     if not sc.feasible:
-        where = free.t[sc.first_empty] if sc.first_empty is not None else 0.0
+        where = path.t[sc.first_empty] if sc.first_empty is not None else 0.0
         message = (
-            f"torque limits infeasible along the generator path (empty controllable set at "
-            f"sigma = {where:.3f} s; eq. (30) violated); unscaled plan returned ({free.message})"
+            f"limits infeasible along the generator path (empty controllable set at "
+            f"sigma = {where:.3f} s; eq. (30) violated); unscaled plan returned ({path.message})"
         )
-        over = np.maximum(np.maximum(free.tau - opt.limits[1], opt.limits[0] - free.tau), 0.0)
-        info["max_torque_violation"] = float(np.nanmax(over))
-        return dataclasses.replace(free, status=Status.INFEASIBLE, message=message, info=info)
-    w = np.sqrt(sc.x)
-    ddq = sc.x[:, None] * free.ddq + 0.5 * sc.v[:, None] * free.dq
+        off = np.maximum(np.maximum(path.tau - opt.limits[1], opt.limits[0] - path.tau), 0.0)
+        info["max_torque_violation"] = float(np.nanmax(off)) if opt.torque_control else 0.0
+        return dataclasses.replace(path, status=Status.INFEASIBLE, message=message, info=info)
+    w, dq, ddq = np.sqrt(sc.x), timed.dq, timed.ddq
     tau = alpha * sc.x[:, None] + 0.5 * beta * sc.v[:, None] + g
-    with np.errstate(invalid="ignore"):
-        over = np.nanmax(np.maximum(np.maximum(tau - opt.limits[1], opt.limits[0] - tau), 0.0))
-    info["max_torque_violation"] = float(over)
-    status, message = free.status, free.message
-    if free.status is Status.REACHED:
-        message = f"goal reached at t = {sc.t[-1]:.3f} s (generator path {free.t[-1]:.3f} s)"
+    over = 0.0
+    if opt.torque_control:
+        excess = np.maximum(np.maximum(tau - opt.limits[1], opt.limits[0] - tau), 0.0)
+        with np.errstate(invalid="ignore"):
+            over = float(np.nanmax(excess))
+    info["max_torque_violation"] = over
+    status, message = path.status, path.message
+    if path.status is Status.REACHED:
+        message = f"goal reached at t = {sc.t[-1]:.3f} s (generator path {path.t[-1]:.3f} s)"
     if over > 1e-9:
         status = Status.INFEASIBLE
         message = f"torque limits broken by up to {over:.3g} N m; " + message
+    if opt.rates is not None:
+        info["max_rate_ratio"] = float(np.max(opt.rates.ratios(dq, ddq), initial=0.0))
+        info["max_rate_step_ratio"] = timed.step_ratio
+        info["time_scaling_rounds"] = timed.rounds
+        broken = opt.rates.first_violation(sc.t, dq, ddq, path.q)
+        if broken is not None:
+            status = Status.INFEASIBLE
+            message = f"rate limits broken: {broken.message}; " + message
+    u, extra_w = (w, None) if time_mode else (path.u, w)
     return RolloutResult(
-        status, message, sc.t, free.q, w[:, None] * free.dq, ddq, tau, w, free.s, free.error, info
+        status, message, sc.t, path.q, dq, ddq, tau, u, path.s, path.error, info, w=extra_w
     )

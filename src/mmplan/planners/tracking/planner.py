@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from mmplan.arrays import Array
 from mmplan.planners.base import Planner, register
 from mmplan.planners.tracking.impedance import VirtualImpedance, platform_distances
 from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
 from mmplan.planners.tracking.result import track
 from mmplan.planners.tracking.settings import ImpedanceSettings, PseudoinverseSettings
-from mmplan.arrays import Array
 from mmplan.problem import Problem, Progress
 from mmplan.task import TrackPath
 from mmplan.trajectory import Solution

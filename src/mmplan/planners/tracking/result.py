@@ -2,6 +2,11 @@
 
 The trajectory's ddq is the central difference of dq; the clearance is measured exactly
 against the scene's (original) obstacles at the robot's collision spheres.
+
+Rate limits (``robot.limits.rates``): a tracker follows a path given in time, so it cannot
+slow down; a plan whose velocities or accelerations exceed a limit, at a sample or on the mean
+of a step (:meth:`~mmplan.time_scaling.rates.RateModel.first_violation`), is ``infeasible``
+and the message names the quantity, the time and the limit.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from mmplan.problem import Problem, Progress
 from mmplan.robot.robot import Robot
 from mmplan.scene.scene import Scene
 from mmplan.task import TrackPath, completion_time
+from mmplan.time_scaling.rates import RateModel
 from mmplan.trajectory import Solution, Status, Trajectory
 
 
@@ -58,9 +64,8 @@ def finish(
     ``t_max`` cut the path short, ``reached`` when the tracking error stays below the task
     tolerance until the end, ``stalled`` when it does not.
     """
-    trajectory = Trajectory(
-        robot.coordinates, run.t, run.q, run.dq, differentiate(run.dq, dt), run.ee
-    )
+    ddq = differentiate(run.dq, dt)
+    trajectory = Trajectory(robot.coordinates, run.t, run.q, run.dq, ddq, run.ee)
     clearance = clearance_series(robot, scene, run.q)
     settled = run.t >= settle_time - 1e-9
     max_err_settled = float(run.error[settled].max()) if settled.any() else None
@@ -91,6 +96,14 @@ def finish(
         message = (
             f"tracked {run.t[-1]:.2f} s; error below {task.tolerance:g} m from t = {t_tol:.2f} s"
         )
+    if robot.limits.rates.any:
+        broken = RateModel.of(robot).first_violation(run.t, run.dq, ddq, run.q)
+        full_info["rate_limits_held"] = broken is None
+        if broken is not None:
+            full_info["rate_violation"] = broken.message
+            if status is not Status.DIVERGED:
+                status = Status.INFEASIBLE
+            message = f"the path needs more than the rate limits: {broken.message}; {message}"
     if clearance is not None and clearance.min() < 0:
         k = int(np.argmin(clearance))
         message += f"; the robot collides (clearance {clearance[k]:.3f} m at t = {run.t[k]:.2f} s)"

@@ -1,11 +1,25 @@
-"""Built-in robots, one module each; :func:`get_robot` builds one by name."""
+"""Built-in robots, one module each; :func:`get_robot` builds one by name.
+
+``tiago`` and ``ur5-omni`` are loaded from the URDFs of example-robot-data (optional extra
+``robots``); without it, building them raises an InputError saying ``pip install
+'mmplan[robots]'``.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
 from mmplan.errors import UnknownNameError
-from mmplan.robot.library import base_6dof, car_rtr, diffdrive_3dof, omni_3dof, youbot_3r, youbot_4r
+from mmplan.robot.library import (
+    base_6dof,
+    car_rtr,
+    diffdrive_3dof,
+    omni_3dof,
+    tiago,
+    ur5_omni,
+    youbot_3r,
+    youbot_4r,
+)
 from mmplan.robot.robot import Robot
 
 _BUILDERS: dict[str, Callable[[], Robot]] = {
@@ -15,6 +29,8 @@ _BUILDERS: dict[str, Callable[[], Robot]] = {
     "diffdrive-3dof": diffdrive_3dof.build,
     "omni-3dof": omni_3dof.build,
     "base-6dof": base_6dof.build,
+    "tiago": tiago.build,
+    "ur5-omni": ur5_omni.build,
 }
 
 _CACHE: dict[str, Robot] = {}
@@ -30,6 +46,7 @@ def get_robot(name: str) -> Robot:
 
     Raises:
         UnknownNameError: ``name`` is not a built-in robot.
+        InputError: a robot from example-robot-data whose package is not installed.
     """
     if name not in _BUILDERS:
         raise UnknownNameError("robot", f"unknown robot {name!r}; choose one of {robot_names()}")

@@ -1,11 +1,12 @@
-"""Robots from URDF: an arm described in URDF, mounted on one of mmplan's platform kinds.
+"""An arm described in URDF, mounted on a hand-built platform object (arm-only URDFs).
 
 The URDF is parsed with Pinocchio (``pin``, optional extra ``urdf``); its kinematic tree
-(revolute, continuous and prismatic joints; fixed joints merged by Pinocchio) and its
+(revolute and prismatic joints; fixed joints merged by Pinocchio) and its
 inertias become an mmplan :class:`~mmplan.robot.tree.KinematicTree` mounted on the platform
 at ``mount_xyz``/``mount_rpy``. The platform (differential drive, car, omnidirectional)
 keeps its own Pfaffian constraints: a URDF cannot express rolling constraints, so wheels
-are never faked with holonomic joints.
+are never faked with holonomic joints. A whole robot (wheels in the URDF) loads with
+:func:`mmplan.robot.urdf.load_urdf_robot`.
 
 Collision points are placed along each link, from its joint to each child joint, at most
 ``collision_spacing`` apart, plus the platform's box when given.
@@ -15,7 +16,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -24,52 +24,9 @@ from mmplan.robot.bases import PLATFORM, Platform
 from mmplan.robot.collision import points_on_box, points_on_segment
 from mmplan.robot.limits import Limits
 from mmplan.robot.robot import CollisionSphere, EndEffector, Robot
-from mmplan.robot.tree import Body, Inertial, Joint, JointKind
-
-_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
-
-
-def _pinocchio():  # type: ignore[no-untyped-def]
-    try:
-        import pinocchio
-    except ImportError:  # pragma: no cover - depends on the installation
-        raise InputError(
-            "robot.urdf", "URDF support needs Pinocchio: pip install 'mmplan[urdf]'"
-        ) from None
-    return pinocchio
-
-
-def _joint_kind_and_axis(model_joint: Any) -> tuple[JointKind, tuple[float, float, float]]:
-    name = model_joint.shortname()
-    for prefix, kind in (("JointModelR", JointKind.REVOLUTE), ("JointModelP", JointKind.PRISMATIC)):
-        if name.startswith(prefix):
-            suffix = name[len(prefix) :]
-            if suffix in _AXES:
-                return kind, _AXES[suffix]
-            if suffix in ("evoluteUnaligned", "rismaticUnaligned"):
-                concrete = model_joint.extract()
-                axis = np.asarray(concrete.axis, dtype=float)
-                return kind, (float(axis[0]), float(axis[1]), float(axis[2]))
-            if suffix.startswith("UB"):
-                raise InputError("robot.urdf", f"unbounded (continuous) joint {name} unsupported")
-    raise InputError("robot.urdf", f"joint type {name} is not supported (revolute/prismatic only)")
-
-
-def _xyz_rpy(placement: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    pin = _pinocchio()
-    t = np.asarray(placement.translation, dtype=float)
-    rpy = pin.rpy.matrixToRpy(placement.rotation)
-    return (float(t[0]), float(t[1]), float(t[2])), (float(rpy[0]), float(rpy[1]), float(rpy[2]))
-
-
-def _vec(v: Any) -> tuple[float, float, float]:
-    return (float(v[0]), float(v[1]), float(v[2]))
-
-
-def _inertial(inertia: Any) -> Inertial:
-    """mmplan Inertial from a Pinocchio Inertia (mass, lever = com, inertia about the com)."""
-    rows = tuple(_vec(row) for row in np.asarray(inertia.inertia, dtype=float))
-    return Inertial(float(inertia.mass), _vec(inertia.lever), rows)
+from mmplan.robot.tree import Body, Joint, JointKind
+from mmplan.robot.urdf.parse import inertial as _inertial
+from mmplan.robot.urdf.parse import joint_kind_and_axis, load_model, pinocchio, vec3, xyz_rpy
 
 
 def robot_from_urdf(
@@ -102,17 +59,8 @@ def robot_from_urdf(
     Raises:
         InputError: unreadable URDF, unsupported joints, unknown ``ee_link``.
     """
-    pin = _pinocchio()
-    text = str(urdf)
-    try:
-        if text.lstrip().startswith("<"):
-            model = pin.buildModelFromXML(text)
-        else:
-            if not Path(text).is_file():
-                raise InputError("robot.urdf", f"no such file: {text}")
-            model = pin.buildModelFromUrdf(text)
-    except (RuntimeError, ValueError) as exc:
-        raise InputError("robot.urdf", f"cannot parse URDF: {exc}") from None
+    pin = pinocchio()
+    model = load_model(urdf)
     if not model.existFrame(ee_link):
         links = [f.name for f in model.frames]
         raise InputError("robot.ee_link", f"unknown link {ee_link!r}; links: {links}")
@@ -130,13 +78,18 @@ def robot_from_urdf(
                 JointKind.FIXED,
                 PLATFORM,
                 prefix + "root",
-                _vec(mount_xyz),
-                _vec(mount_rpy),
+                vec3(mount_xyz),
+                vec3(mount_rpy),
             )
         )
     coordinates: list[str] = []
     for jid in range(1, model.njoints):
-        kind, axis = _joint_kind_and_axis(model.joints[jid])
+        if model.joints[jid].shortname().startswith("JointModelRUB"):
+            raise InputError(
+                "robot.urdf", f"joint {model.names[jid]!r} is continuous: give the whole robot "
+                "to load_urdf_robot (wheels become platform coordinates)"
+            )
+        kind, axis = joint_kind_and_axis(model.joints[jid], model.names[jid], "robot.urdf")
         parent = body_of_joint[model.parents[jid]]
         placement = model.jointPlacements[jid]
         if model.parents[jid] == 0:
@@ -144,7 +97,7 @@ def robot_from_urdf(
                 pin.rpy.rpyToMatrix(np.asarray(mount_rpy, float)), np.asarray(mount_xyz, float)
             )
             placement = mount * placement
-        xyz, rpy = _xyz_rpy(placement)
+        xyz, rpy = xyz_rpy(placement)
         inertia = model.inertias[jid]
         inertial = _inertial(inertia)
         body = prefix + model.names[jid]
