@@ -54,12 +54,17 @@ class _UsageLine(click.ClickException):
         _print_error(self.message)
 
 
+#: Raised by click >= 8.2 for a bare `mmplan` (it shows the help); click 8.1 exits instead.
+_HELP_ERRORS: tuple[type[BaseException], ...] = tuple(
+    c for c in (getattr(click.exceptions, "NoArgsIsHelpError", None),) if c is not None)
+
+
 @contextmanager
 def _usage_in_one_line() -> Iterator[None]:
     """Click's usage errors (usage block + hint + message) become one ``error:`` line."""
     try:
         yield
-    except click.exceptions.NoArgsIsHelpError:
+    except _HELP_ERRORS:
         raise  # bare `mmplan`: the help text is the answer
     except _UsageLine:
         raise
@@ -85,9 +90,15 @@ class _Group(click.Group):
 
 @contextmanager
 def _user_errors() -> Iterator[None]:
-    """Turn every exception into one line on stderr and an exit code."""
+    """Turn every exception into one line on stderr and an exit code.
+
+    Floating-point RuntimeWarnings (overflow, NaN from absurd input) are not printed: what
+    went wrong is the error line, the FAIL lines or summary.json.
+    """
     try:
-        yield
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            yield
     except MmplanError as exc:
         _fail(str(exc), exc.exit_code)
     except KeyboardInterrupt:
@@ -154,7 +165,11 @@ def robots() -> None:
 def scenarios() -> None:
     """List the built-in scenarios (robot, planning method, whether the method is installed)."""
     with _user_errors():
-        table = Table("scenario", "robot", "method", "available")
+        table = Table()
+        table.add_column("scenario", no_wrap=True)  # names are what a user types: never cut
+        table.add_column("robot", overflow="fold")
+        table.add_column("method", overflow="fold")
+        table.add_column("installed", overflow="fold")
         available = set(mmplan.methods())
         for name, path in mmplan.builtin_scenarios().items():
             try:
@@ -274,11 +289,9 @@ def check_cmd(directory: Path) -> None:
         trajectory, sc = mmplan.read_plan(directory)
         claimed = mmplan.read_summary(directory)
         status = claimed.get("status")
-        with warnings.catch_warnings():  # absurd numbers (1e308) are failed checks, not noise
-            warnings.simplefilter("ignore", RuntimeWarning)
-            report = mmplan.check(trajectory, sc.build(),
-                                  status=None if status is None else str(status))
-            failures = report.failures() + summary_disagreements(claimed, report, sc.method)
+        report = mmplan.check(trajectory, sc.build(),
+                              status=None if status is None else str(status))
+        failures = report.failures() + summary_disagreements(claimed, report, sc.method)
         print_check(report)
         for line in failures:
             err.print(_one_line(f"FAIL {line}"), markup=False, soft_wrap=True)
