@@ -173,3 +173,27 @@ def test_superellipsoid_and_tube_meshes_lie_on_their_surfaces() -> None:
     np.testing.assert_allclose(np.linalg.norm(rings - line[:, None, :], axis=2), 0.01)
     box = footprint(Box((1.0, 2.0, 0.5), (0.4, 0.2, 1.0), np.pi / 2))
     np.testing.assert_allclose(np.ptp(box, axis=0), [0.2, 0.4], atol=1e-12)  # turned 90 deg
+
+
+def test_mesh_visuals_reach_meshcat_as_triangles_or_mesh_files() -> None:
+    """The hook for URDF link meshes: a MESH piece given as triangles or as a file's text."""
+    from mmplan.report.meshcat_commands import Commands, path
+    from mmplan.report.scene3d import _geometry
+    from mmplan.report.visuals import Visual, VisualKind
+
+    triangles = Visual("hull", VisualKind.MESH, (2.0, 2.0, 2.0), vertices=np.eye(3),
+                       faces=np.array([[0, 1, 2]]))
+    obj = Visual("shell", VisualKind.MESH, (1.0, 1.0, 1.0),
+                 mesh_data="v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", mesh_format="obj")
+    cmds = Commands()
+    for piece in (triangles, obj):
+        geometry, pose = _geometry(piece)
+        cmds.mesh(path("robot", "link", piece.name), geometry, "#808080", 1.0, pose)
+    decoded = [umsgpack.unpackb(c) for c in cmds.packed]
+    objects, poses = _objects(decoded), _transforms(decoded)
+    hull = objects["/robot/link/hull"]["geometries"][0]
+    assert hull["type"] == "BufferGeometry"
+    np.testing.assert_allclose(np.diag(poses["/robot/link/hull"])[:3], 2.0)  # its scale
+    shell = objects["/robot/link/shell"]["geometries"][0]
+    assert (shell["type"], shell["format"]) == ("_meshfile_geometry", "obj")
+    assert shell["data"].startswith("v 0 0 0")

@@ -3,8 +3,9 @@
 plan`, a sample exits 0, 2 or 3 with no partial folder and no NaN written.
 
 Mutations (1-3 per case, on the parsed file, then dumped as YAML): a value replaced by a wrong
-type, a huge / negative / NaN / infinite / tiny number, a deleted key, an unknown key, a list
-one longer / shorter / empty, another key's value; and on the text: an alias bomb, deep
+type, a huge / negative / NaN / infinite / tiny number, a number scaled (x -1, 0.001 ... 1000,
+plus noise), a deleted key, an unknown key, a list one longer / shorter / empty / 40 times
+longer, another key's value; and on the text: an alias bomb, deep
 nesting, a list as a mapping key, a duplicate key, a 5000-digit integer, a Python tag, a long
 string. ``MMPLAN_FUZZ_SEED`` and ``MMPLAN_FUZZ_CASES`` widen a local run (CI: the defaults).
 """
@@ -18,7 +19,6 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -81,15 +81,20 @@ def mutate(data: dict[str, Any], rng: np.random.Generator) -> str:
     paths = all_paths(data)
     path = pick(rng, paths)
     parent, key = parent_of(data, path), path[-1]
-    kind = pick(rng, ["type", "number", "number", "delete", "unknown", "length", "swap",
-                      "bomb", "text", "key", "long"])
+    kind = pick(rng, ["type", "number", "number", "scale", "scale", "delete", "unknown",
+                      "length", "swap", "bomb", "text", "key", "long"])
     if kind == "type":
         parent[key] = copy.deepcopy(pick(rng, WRONG_TYPES))
-    elif kind == "number":
-        numeric = [p for p in paths if isinstance(parent_of(data, p)[p[-1]], int | float)]
+    elif kind in ("number", "scale"):
+        numeric = [p for p in paths if isinstance(parent_of(data, p)[p[-1]], int | float)
+                   and not isinstance(parent_of(data, p)[p[-1]], bool)]
         path = pick(rng, numeric or [path])
         parent, key = parent_of(data, path), path[-1]
-        parent[key] = pick(rng, NUMBERS)
+        if kind == "number" or not isinstance(parent[key], int | float):
+            parent[key] = pick(rng, NUMBERS)
+        else:  # a plausible value of another size or sign (often accepted: planners run)
+            parent[key] = parent[key] * pick(rng, [-1, 0.5, 2, 10, 0.1, 1e-3, 1e3]) + \
+                float(rng.normal(0, 0.1))
     elif kind == "delete":
         del parent[key]
     elif kind == "unknown":
@@ -248,7 +253,7 @@ def nan_written(out: Path) -> list[str]:
     if not np.all(np.isfinite(data)):
         found.append("trajectory.csv holds NaN or inf")
 
-    def refuse(token: str) -> Callable[[str], float]:
+    def refuse(token: str) -> float:
         found.append(f"summary.json holds {token}")
         return float(token)
 

@@ -133,6 +133,8 @@ def test_too_many_values_are_refused(tmp_path: Path) -> None:
     ("start: [0]\n\x00\n", "malformed YAML"),
     ("start: [0]\n---\nb: 1\n", "malformed YAML: line 6, column 1: but found another document"),
     ("start: [0]\nrobot2: *nope\n", "malformed YAML: line 6, column 9: found undefined alias"),
+    ("start: [0]\nx1: &x [1]\nx2: &x [2]\n", "malformed YAML: line 7, column 5: found duplicate "
+                                            "anchor"),
 ])
 def test_odd_scalars_and_streams_are_one_line(tmp_path: Path, text: str, expected: str) -> None:
     assert expected in refused(tmp_path, HEAD + text)

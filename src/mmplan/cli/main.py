@@ -292,7 +292,7 @@ def check_cmd(directory: Path) -> None:
         report = mmplan.check(trajectory, sc.build(),
                               status=None if status is None else str(status))
         failures = report.failures() + summary_disagreements(claimed, report, sc.method)
-        print_check(report)
+        print_check(report, trajectory_end_s=float(trajectory.t[-1]))
         for line in failures:
             err.print(_one_line(f"FAIL {line}"), markup=False, soft_wrap=True)
         if failures:

@@ -23,29 +23,26 @@ class MissingExtraError(MmplanError, ImportError):
     """An optional dependency of the report is not installed (exit code 1, one line)."""
 
 
-try:
-    import matplotlib  # noqa: F401
-except ImportError:  # pragma: no cover - depends on the environment
-    raise MissingExtraError(
-        "mmplan report needs matplotlib: pip install 'mmplan[report]'"
-    ) from None
-if find_spec("meshcat") is None:  # pragma: no cover - depends on the environment
-    raise MissingExtraError("mmplan report needs meshcat (its 3D viewer): "
-                            "pip install 'mmplan[report]'")
-
-import numpy as np  # noqa: E402
-
-from mmplan.report import build as _build  # noqa: E402
+for _extra in ("matplotlib", "meshcat"):  # the figures; the 3D viewer
+    if find_spec(_extra) is None:  # pragma: no cover - depends on the environment
+        raise MissingExtraError(f"mmplan report needs {_extra}: pip install 'mmplan[report]'")
 
 
 def write_report(plan_dir: str | Path, max_frames: int = 1000,
                  step: Callable[[str], None] | None = None, parallel: bool = True) -> Path:
     """Write ``plan_dir/report.html`` and ``plan_dir/figures/*.png`` (see
-    :func:`mmplan.report.build.write_report`), without numerical warnings on stderr."""
+    :func:`mmplan.report.build.write_report`), without numerical warnings on stderr.
+
+    The plotting stack is imported here, on first use (half a second), not with the package.
+    """
+    import numpy as np
+
+    from mmplan.report import build
+
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
         warnings.simplefilter("ignore", UserWarning)
-        return _build.write_report(plan_dir, max_frames, step, parallel)
+        return build.write_report(plan_dir, max_frames, step, parallel)
 
 
 def check_failures(plan_dir: str | Path) -> list[str]:
@@ -73,7 +70,8 @@ def render_report_cli(plan_dir: str | Path) -> Path:
     from mmplan.cli.output import StepStatus, err
     from mmplan.report.background import Background
 
-    checking = Background(lambda: check_failures(plan_dir))  # in parallel with the drawing
+    # the check runs in a child process while this one imports matplotlib and draws
+    checking = Background(lambda: check_failures(plan_dir))
     steps = StepStatus(enabled=err.is_terminal)
     try:
         out = write_report(plan_dir, step=steps)

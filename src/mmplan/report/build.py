@@ -1,9 +1,9 @@
 """Writing a report: read the plan directory, derive, draw, assemble, write.
 
 ``write_report(DIR)`` writes ``DIR/report.html`` (one self-contained file) and
-``DIR/figures/<name>.png`` (the same figures as files). The figures are drawn in two halves,
-one by a forked child process (:mod:`.background`) while this process builds the 3D view and
-draws the other half.
+``DIR/figures/<name>.png`` (the same figures as files). The work is split in two halves of
+about equal time: a forked child process (:mod:`.background`) builds the 3D view (importing
+meshcat) and draws the spatial and method figures while this process draws the time series.
 """
 
 from __future__ import annotations
@@ -30,23 +30,28 @@ def _none(label: str) -> None:
 
 
 def first_half(ctx: ReportContext) -> list[RenderedFigure]:
-    """The spatial figures and the method's own (history, artifacts)."""
-    figures = [top_view_figure(ctx), platform_figure(ctx)]
-    history = history_figure(ctx.plan.history, ctx.plan.t)
-    if history is not None:
-        figures.append(history)
-    return figures + artifact_figures(ctx.plan.artifacts)
+    """The spatial figures and the method's artifacts (grids, spectra)."""
+    return [top_view_figure(ctx), platform_figure(ctx), *artifact_figures(ctx.plan.artifacts)]
 
 
 def second_half(ctx: ReportContext) -> list[RenderedFigure]:
-    """The time series ([PajakPajak]'s and [Pajak]'s figures)."""
-    return time_figures(ctx)
+    """The time series ([PajakPajak]'s and [Pajak]'s figures) and the planner's history."""
+    history = history_figure(ctx.plan.history, ctx.plan.t)
+    return time_figures(ctx) + ([history] if history is not None else [])
+
+
+def view_and_first_half(ctx: ReportContext, max_frames: int) -> tuple[str, list[RenderedFigure]]:
+    """The 3D view's HTML block and :func:`first_half`."""
+    from mmplan.report.scene3d import scene_commands  # meshcat: imported here, once
+
+    return viewer_block(scene_commands(ctx, max_frames)), first_half(ctx)
 
 
 def order(figures: list[RenderedFigure]) -> list[RenderedFigure]:
-    """Report order: the top view, the time series, the platform, the method's figures."""
-    rank = {"top_view": 0, "platform": 2}
-    return sorted(figures, key=lambda f: rank.get(f.name, 1 if f.name in TIME_SERIES else 3))
+    """Report order: the top view, the time series, the platform, the planner's history, the
+    method's figures (stable within each group)."""
+    rank = {"top_view": 0.0, "platform": 2.0, "history": 2.5}
+    return sorted(figures, key=lambda f: rank.get(f.name, 1.0 if f.name in TIME_SERIES else 3.0))
 
 
 TIME_SERIES = ("clearance", "joints", "manipulability", "torques_wheels", "torques_arm",
@@ -81,15 +86,13 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None
     plan = read_plan_dir(root)
     ctx = build_context(plan, max_samples=max_frames)
     step("drawing the figures and the 3D view")
-    child = Background(lambda: first_half(ctx), enabled=parallel)
+    child = Background(lambda: view_and_first_half(ctx, max_frames), enabled=parallel)
     try:
-        from mmplan.report.scene3d import scene_commands  # meshcat: imported here, once
-
-        viewer = viewer_block(scene_commands(ctx, max_frames))
         own = second_half(ctx)
-        figures = order(child.result() + own)
+        viewer, theirs = child.result()
     finally:
         child.cancel()
+    figures = order(theirs + own)
     step("writing the page")
     text = page(plan.summary, plan.scenario, overview(ctx), figures, viewer)
     folder = root / "figures"

@@ -30,11 +30,11 @@ STATUS_TEXT = {
 }
 #: Relative slack of the checker's rate limits (mmplan.verify.rates.RATE_REL_TOL).
 RATE_SLACK = 1e-6
-RATE_UNITS = {"platform_speed": ("platform speed", "m/s", "peak_platform_speed_mps"),
-              "platform_yaw_rate": ("platform yaw rate", "rad/s", "peak_platform_yaw_rate_radps"),
-              "platform_acceleration": ("platform acceleration", "m/s^2",
+RATE_UNITS = {"platform_speed": ("Platform speed", "m/s", "peak_platform_speed_mps"),
+              "platform_yaw_rate": ("Platform yaw rate", "rad/s", "peak_platform_yaw_rate_radps"),
+              "platform_acceleration": ("Platform acceleration", "m/s^2",
                                         "peak_platform_acceleration_mps2"),
-              "platform_yaw_acceleration": ("platform yaw acceleration", "rad/s^2",
+              "platform_yaw_acceleration": ("Platform yaw acceleration", "rad/s^2",
                                             "peak_platform_yaw_acceleration_radps2")}
 
 
@@ -225,9 +225,11 @@ def _rate_rows(ctx: ReportContext, summary: Mapping[str, Any]) -> list[LimitRow]
             continue
         bound = None if peak is None else peak + float(margin)
         slack = RATE_SLACK * abs(bound) if bound is not None else 0.0  # the checker's
+        shown = fmt(float(margin), unit)
+        if -slack <= float(margin) < 0:
+            shown = f"0 {unit} (at the limit)"
         rows.append(LimitRow(f"limit.rate.{key}", what, "peak " + fmt(peak, unit),
-                             "<= " + fmt(bound, unit), fmt(float(margin), unit),
-                             float(margin) >= -slack))
+                             "<= " + fmt(bound, unit), shown, float(margin) >= -slack))
     return rows
 
 

@@ -1,7 +1,7 @@
 // mmplan report: the 3D view. Hands the embedded meshcat commands to meshcat's viewer
 // (MeshCat.Viewer, the three.js bundle inlined before this script) and adds what a report
 // reader needs below it: play/pause, a time slider, the speed, "follow the robot",
-// the collision points, and labels (grid scale in metres, obstacles, start, goal) drawn over
+// the collision model, and labels (grid scale in metres, obstacles, start, goal) drawn over
 // the view. No server, no network: meshcat's own page gets the same commands by websocket.
 (function () {
   "use strict";
@@ -85,10 +85,14 @@
       shown(time);
       self.showTime(time);
     };
-    var pause = animator.pause.bind(animator);
-    animator.pause = function () {
+    var pause = animator.pause.bind(animator), play = animator.play.bind(animator);
+    animator.pause = function () {  // also from meshcat's own panel ("Open Controls")
       pause();
       self.button.textContent = "Play";
+    };
+    animator.play = function () {
+      play();
+      self.button.textContent = "Pause";
     };
     this.button.addEventListener("click", function () { self.toggle(); });
     this.slider.addEventListener("input", function () { self.seek(parseFloat(self.slider.value)); });
@@ -117,7 +121,6 @@
       if (animator.time >= this.duration - 1e-6) this.seek(0);
       animator.mixer.timeScale = parseFloat(this.speed.value);
       animator.play();
-      this.button.textContent = "Pause";
     }
   };
 

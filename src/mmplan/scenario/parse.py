@@ -96,6 +96,9 @@ def parse_yaml(text: str, source: str) -> dict[str, Any]:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        context = str(getattr(exc, "context", None) or "")
+        if problem == "second occurrence" and context:  # "found duplicate anchor 'a'; first ..."
+            problem = context.split(";")[0]
         raise ScenarioError(source, "", f"malformed YAML: {where}{problem}") from None
     except (ValueError, OverflowError, TypeError, RecursionError) as exc:  # e.g. int('9' * 5000)
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

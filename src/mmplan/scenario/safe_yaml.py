@@ -86,8 +86,6 @@ def clip(text: str, limit: int = MAX_MESSAGE) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-
-
 @dataclass
 class _Frame:
     """An open collection while the event stream is read."""

@@ -136,11 +136,18 @@ class CheckReport:
         if not self.dq_residual <= DQ_REL_TOL * max(self.dq_scale, 1e-3):
             out.append(f"dq consistency: q differs from the integral of dq by "
                        f"{self.dq_residual:.3g}/s per step (max |dq| = {self.dq_scale:.3g})")
-        if self.status is not None and (self.status == "reached") != self.task_completed:
+        out += self.rates.failures()
+        # "reached" needs the task completed; another status with the task completed is
+        # honest only when the plan breaks something else (a limit, a collision, ...).
+        reached = self.status == "reached"
+        if self.status is not None and (
+            (reached and not self.task_completed)
+            or (not reached and self.task_completed and not out)
+        ):
             done = "completed" if self.task_completed else "not completed"
             out.append(f"status: planner says {self.status!r} but the task is {done} "
                        f"(final error {self.final_error_m:.3g} m, tolerance {self.tolerance:g} m)")
-        return out + self.rates.failures()
+        return out
 
     def summary(self, *, status: str, planner: str, compute_time_s: float) -> dict[str, Any]:
         """summary.json content (docs/conventions.md keys, in order) with the run's own fields."""

@@ -21,11 +21,14 @@ from mmplan.problem import Problem
 from mmplan.robot.library import base_6dof_ik as puma_ik
 from mmplan.robot.library import get_robot
 from mmplan.robot.library.base_6dof_ik import PumaGeometry
+from mmplan.scenario import load_scenario
 from mmplan.scene import Scene
 from mmplan.task import DrawSegment, ReachPoint
 from mmplan.trajectory import PlanResult, Status
 
-ROBOT = get_robot("base-6dof")
+#: The papers' setting ([Nagatani] ignores joint limits): base-6dof with every arm joint in
+#: [-pi, pi] (q6 wider), as the built-in wall-segment scenario states it.
+ROBOT = load_scenario("wall-segment").build().robot
 GEOM = PumaGeometry.base_6dof()
 WALL = DrawSegment((0.0, 0.0, 0.32), (0.0, 0.60, 0.62), (1.0, 0.0, 0.0), 1e-3)
 COARSE = {"resolution": 0.04, "layers": 7}
@@ -188,7 +191,7 @@ def test_base_never_behind_the_wall() -> None:
 
 def test_subgoals_when_no_straight_segment_exists() -> None:
     task = DrawSegment((0.0, 0.0, 0.35), (0.0, -0.6, 0.27), (1.0, 0.0, 0.0), 1e-3)
-    res = plan(task, respect_joint_limits=True)
+    res = plan(task, get_robot("base-6dof"))  # the PUMA's own limits (Corke): a thin LMA
     info = res.info
     assert res.status is Status.REACHED, res.message
     assert info["path_kind"] == "subgoals" and info["straight_lengths_checked"] == 0
@@ -211,7 +214,7 @@ def test_subgoals_when_no_straight_segment_exists() -> None:
     assert w.min() >= info["manipulability_threshold"]
     assert info["max_joint_limit_violation_rad"] == 0.0
     assert info["max_task_error_m"] < 1e-9 and np.all(xy[:, 0] > 0)
-    off = plan(task, respect_joint_limits=True, subgoals=False)
+    off = plan(task, get_robot("base-6dof"), subgoals=False)
     assert off.status is Status.INFEASIBLE and "no straight base segment" in off.message
 
 
@@ -252,3 +255,20 @@ def test_bad_input_raises_input_error() -> None:
         ManipulabilityAreaSettings(layers=1)
     with pytest.raises(ValidationError):
         ManipulabilityAreaSettings(grid=0.1)  # type: ignore[call-arg]
+
+
+def test_a_path_that_breaks_joint_limits_is_never_reached() -> None:
+    """Ignoring the limits (the paper's way) may give a path outside them: that plan is
+    infeasible, not reached (it was reported reached before), and the checker agrees."""
+    from mmplan.verify.check import check
+
+    robot = get_robot("base-6dof")
+    res = plan(WALL, robot, respect_joint_limits=False, **COARSE)
+    assert res.info["max_joint_limit_violation_rad"] > 0.1
+    assert res.status is Status.INFEASIBLE and "joint limits" in res.message
+    problem = Problem(robot, Scene(), WALL, np.zeros(9), ManipulabilityAreaSettings(**COARSE))
+    report = check(res.trajectory, problem, status=res.status.value)
+    assert any(f.startswith("joint limits") for f in report.failures())
+    assert not any(f.startswith("status") for f in report.failures())
+    respected = plan(WALL, robot, **COARSE)  # the default respects them
+    assert respected.info["max_joint_limit_violation_rad"] == 0.0

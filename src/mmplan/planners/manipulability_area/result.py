@@ -164,6 +164,15 @@ def assemble(
     elif err.max() >= problem.task.tolerance:
         status = Status.INFEASIBLE
         message = f"task error {err.max():.3g} m >= tolerance {problem.task.tolerance} m"
+    elif info["max_joint_limit_violation_rad"] > 1e-9:
+        # The path ignores the limits (as [Nagatani] does, respect_joint_limits false), but a
+        # plan that breaks the robot's limits is not one it can execute: never "reached".
+        status = Status.INFEASIBLE
+        message = (
+            f"the arm leaves its joint limits by up to "
+            f"{info['max_joint_limit_violation_rad']:.4g} rad; set planner.respect_joint_limits: "
+            "true to plan inside them"
+        )
     else:
         status = Status.REACHED
         message = (

@@ -56,7 +56,11 @@ class ManipulabilityAreaSettings(PlannerSettings):
     straight_groups: int = Field(
         default=200, ge=1, description="straight lengths verified exactly, at most"
     )
-    respect_joint_limits: bool = False
+    respect_joint_limits: bool = Field(
+        default=True,
+        description="remove cells whose IK solution leaves the joint limits; false plans as "
+        "[Nagatani] (limits ignored), and a path that then breaks them is infeasible",
+    )
     substeps: int = Field(default=1, ge=1, le=100,
                           description="trajectory rows (and exact checks) per layer interval")
 
