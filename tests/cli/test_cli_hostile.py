@@ -135,9 +135,6 @@ def test_check_of_absurd_numbers_prints_only_fail_lines(plan_dir: Path, value: s
     assert lines and all(line.startswith("FAIL ") and len(line) <= 500 for line in lines), lines
 
 
-@pytest.mark.xfail(strict=True, reason="outside issue 16's files: scene/_gauge.py "
-                   "signed_distance fails on non-finite points (cKDTree.query ValueError, "
-                   "IndexError past the surface samples); reported to the lead")
 @pytest.mark.parametrize("value", ["nan", "inf", "1e200"])
 def test_check_of_non_finite_samples_is_a_failed_check(plan_dir: Path, value: str) -> None:
     absurd_rows(plan_dir, value)

@@ -269,8 +269,8 @@ def check_cmd(directory: Path) -> None:
 
     Recomputes from q alone: end effector by forward kinematics, clearance to the original
     obstacles by exact geometry, joint and torque limits, Pfaffian residual |A(q) dq|,
-    dq against q, velocity and acceleration limits at every sample (on the dq, ddq columns,
-    slack 1e-6 relative, and on finite differences of q and dq, 1 %), completion times
+    dq against q, velocity and acceleration limits (on the dq, ddq columns and on what any
+    motion through consecutive samples needs, from q and dq; slack 1e-6 relative), completion times
     T(1 cm), T(1 mm); checks that the status in
     summary.json agrees with the task error and that every checked number in summary.json
     agrees with the recomputed one (relative 1e-6). Example:

@@ -144,8 +144,8 @@ def print_check(report: mmplan.CheckReport, trajectory_end_s: float | None = Non
 
 
 def print_rates(rates: RateReport) -> None:
-    """Each rate limit with its thresholds: the dq/ddq columns' peak, the finite differences'."""
-    from mmplan.verify.rates import FD_REL_TOL, RATE_REL_TOL
+    """Each rate limit with its thresholds: the dq/ddq columns' peak, the steps' least need."""
+    from mmplan.verify.rates import DQ_TOL, RATE_REL_TOL
 
     if not rates.timed:
         out.print(f"{'rate limits:':23s}t is the segment parameter, not time: not checkable"
@@ -158,12 +158,14 @@ def print_rates(rates: RateReport) -> None:
     if not rates.checks:
         out.print(f"{'rate limits:':23s}none set", markup=False)
         return
-    out.print(f"{'rate limits:':23s}peak of the dq/ddq columns <= limit (1 + {RATE_REL_TOL:g}); "
-              f"finite differences of q, dq <= limit (1 + {FD_REL_TOL:g})", markup=False)
+    out.print(f"{'rate limits:':23s}peak of the dq/ddq columns and least need of any motion "
+              f"between samples (from q, dq; dq +-{DQ_TOL:g}) <= limit (1 + {RATE_REL_TOL:g})",
+              markup=False)
     for c in rates.checks:
         verdict = "ok" if not c.failures() else "FAIL"
-        out.print(f"  {c.label + ':':28s}peak {c.peak:.4g}, finite diff. {c.fd_peak:.4g}, limit "
-                  f"{c.limit:.4g} {c.unit}, margin {c.limit - c.peak:.3g}: {verdict}",
+        out.print(f"  {c.label + ':':28s}peak {c.peak:.4g}, between samples "
+                  f"{c.step_peak:.4g}, limit {c.limit:.4g} {c.unit}, margin "
+                  f"{c.limit - c.peak:.3g}: {verdict}",
                   markup=False)
 
 

@@ -5,23 +5,19 @@ scaling); a robot's controller runs at a fixed rate. :func:`resample` evaluates 
 interpolant of the plan at :math:`t_0 + k/f` (rate :math:`f` in Hz), so that the exported
 q, dq, ddq are exact derivatives of one curve, not held samples:
 
-* **q, dq, ddq**: a piecewise quartic Hermite polynomial. On each original step
-  :math:`[t_i, t_{i+1}]` (length :math:`h`, :math:`s = (t - t_i)/h`) it matches
-  :math:`q_i, \dot q_i, \ddot q_i` at :math:`t_i` and :math:`q_{i+1}, \dot q_{i+1}` at
-  :math:`t_{i+1}`:
-
-  .. math::
-
-      q(s) = \sum_{k=0}^{4} c_k s^k,\quad c_0 = q_i,\ c_1 = h\dot q_i,\
-      c_2 = \tfrac{h^2}{2}\ddot q_i,\ c_3 = 4P - V,\ c_4 = V - 3P,
-
-  with :math:`P = q_{i+1} - c_0 - c_1 - c_2` and :math:`V = h\dot q_{i+1} - c_1 - 2c_2`.
-  The curve is C1 everywhere; its acceleration may jump at an original sample, as the
-  planners' own does: a written ``ddq`` row is the acceleration on the step that starts
-  there (the time scaling keeps :math:`\dot w` constant per step, so ``ddq`` jumps at every
-  sample). A C2 quintic that also matches :math:`\ddot q_{i+1}` has to bulge between the
-  samples: on youbot3r-obstacles-torque (without rate limits) at 100 Hz its peak wheel
-  acceleration is 49 rad/s^2 against the plan's 37 and the quartic's 41.
+* **q, dq, ddq**: the plan's own continuous-time meaning, the cubic Hermite interpolant
+  through :math:`(t_i, q_i, \dot q_i)` (:mod:`mmplan.interpolant`, docs/conventions.md
+  "Between samples"): q and dq are its values, ddq its exact derivative (linear on each
+  original step). It is C1; its acceleration may jump at an original sample, where the
+  written ddq is that of the step starting there. The written ddq therefore differs from the
+  plan's own ddq column at the plan's samples (a planner writes a one-sided value there, e.g.
+  the time scaling's); what counts is that q, dq, ddq are derivatives of one curve, the one the
+  planners hold their limits on. Since the exported samples are values of that curve, the
+  exported ddq and dq stay within the peaks of the plan's interpolant, and every rate check of
+  :mod:`mmplan.verify.rates` (columns, secants of q, least acceleration between samples)
+  passes on the export whenever the plan's interpolant holds its limits, at any rate. (The
+  quartic that also matched the plan's one-sided ddq overshot: on youbot3r-obstacles-torque
+  at 100 Hz |ddq| of phi1 21.6 rad/s^2 against the limit 20 the plan held at its samples.)
 * **Pfaffian constraint**: the interpolant satisfies :math:`A(q)\dot q = 0` only at the
   original samples (in between, about 1e-5 m/s on that plan, above the checker's 1e-6).
   :math:`\dot q` is therefore projected onto :math:`\ker A(q)`:
@@ -33,9 +29,11 @@ q, dq, ddq are exact derivatives of one curve, not held samples:
   efforts of the interpolated motion (up to 1.7 N m on youbot3r-obstacles-torque).
 * **ee**: recomputed from q by the robot's forward kinematics.
 
-A plan that holds its limits exactly at its own samples (the time scaling does) may exceed
-them slightly between them; sampled at other times, the export shows it, and its check
-fails where the plan's passed (:func:`mmplan.io.export.export_plan` reports the failures).
+mmplan's planners hold their rate limits on the interpolant, so their plans export with every
+check passing. A plan from elsewhere whose interpolant breaks a limit between its samples
+exports with the failures named (:func:`mmplan.io.export.export_plan`); so does one whose
+interpolant slips enough that the projection changes dq by more than the checker grants it
+(:data:`mmplan.verify.rates.DQ_TOL`, 1e-5).
 
 The last step is shorter when the duration is not a multiple of :math:`1/f`: the export
 ends exactly at the plan's final time (steps :math:`1/f`, the last one between
@@ -50,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from mmplan import interpolant
 from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.robot import Robot
@@ -83,31 +82,6 @@ def control_times(t0: float, t1: float, rate: float) -> Array:
         return np.array([t0], dtype=float)
     count = math.ceil((t1 - t0) * rate - 1e-3)
     return np.append(t0 + np.arange(count) / rate, t1)
-
-
-def hermite_quartic(t: Array, q: Array, dq: Array, ddq: Array,
-                    times: Array) -> tuple[Array, Array, Array]:
-    """The piecewise quartic of the module doc and its derivatives at ``times`` (inside t).
-
-    Args:
-        t: Sample times (N,), strictly increasing, N >= 2.
-        q, dq, ddq: Samples (N, n).
-        times: Where to evaluate (M,), within [t[0], t[-1]].
-
-    Returns:
-        q, dq, ddq at ``times``, each (M, n).
-    """
-    i = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 2)
-    h = (t[i + 1] - t[i])[:, None]
-    s = ((times - t[i]) / (t[i + 1] - t[i]))[:, None]
-    c0, c1, c2 = q[i], h * dq[i], 0.5 * h * h * ddq[i]
-    P = q[i + 1] - c0 - c1 - c2
-    V = h * dq[i + 1] - c1 - 2.0 * c2
-    c3, c4 = 4.0 * P - V, V - 3.0 * P
-    pos = c0 + s * (c1 + s * (c2 + s * (c3 + s * c4)))
-    vel = (c1 + s * (2.0 * c2 + s * (3.0 * c3 + s * 4.0 * c4))) / h
-    acc = (2.0 * c2 + s * (6.0 * c3 + s * 12.0 * c4)) / (h * h)
-    return pos, vel, acc
 
 
 def _pfaffian_rows(robot: Robot, q: Array) -> Array:
@@ -161,7 +135,7 @@ class Resampled:
         """These numbers as a JSON-ready dict (summary.json ``planner_info.export``)."""
         return {"rate_hz": self.rate_hz, "source_samples": self.source_samples,
                 "samples": self.trajectory.samples,
-                "interpolation": "quartic Hermite (q, dq, ddq); tau, u, extra linear",
+                "interpolation": "cubic Hermite (q, dq), ddq its derivative; tau, u, extra linear",
                 "pfaffian_residual_interpolated": self.pfaffian_interpolated,
                 "dq_projection_max": self.dq_projection}
 
@@ -183,9 +157,9 @@ def resample_detailed(trajectory: Trajectory, rate: float, robot: Robot) -> Resa
     if tr.samples == 1:
         q, dq, ddq = tr.q.copy(), tr.dq.copy(), tr.ddq.copy()
     else:
-        q, dq, ddq = hermite_quartic(tr.t, tr.q, tr.dq, tr.ddq, times)
-        for k in (0, -1):  # exactly the plan's start and end (no rounding of h^2 / h^2)
-            q[k], dq[k], ddq[k] = tr.q[k], tr.dq[k], tr.ddq[k]
+        q, dq, ddq = interpolant.evaluate(tr.t, tr.q, tr.dq, times)
+        for k in (0, -1):  # exactly the plan's start and end (no rounding of h s)
+            q[k], dq[k] = tr.q[k], tr.dq[k]
     before = pfaffian_residuals(robot, q, dq)
     projected = project_to_constraints(robot, q, dq)
     change = float(np.max(np.abs(projected - dq)))

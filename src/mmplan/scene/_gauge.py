@@ -61,6 +61,7 @@ _TINY = 1e-12  # lower clip of ratios raised to negative powers (exponents > 1)
 _SAMPLE_N = 48  # cube-map grid size per face of the seed sample
 _FINE_N = 192  # finer seed sample for points inside
 _MAX_ITER = 60
+_FAR = 1e12  # m: beyond this a point's distance is its distance from the centre
 _TOL = 1e-13  # Newton step size [m] below which a point is converged
 _SEED_EPS = 0.05  # relative tolerance of the approximate seed query for outside points
 _PATTERN_ITER = 400
@@ -146,8 +147,31 @@ def signed_distance(
     Method and accuracy in the module docstring. With ``approximate_seeds`` the seeds of
     outside points come from an approximate k-d tree query (within 5 %, several times
     faster far from the shape); points whose answer is then not certified are redone with
-    exact seeds.
+    exact seeds. A non-finite point gets NaN; a point farther than ``_FAR`` [m] gets its
+    distance from the centre (the surface is negligibly small at that range, and the k-d tree
+    cannot square such coordinates).
     """
+    local = np.asarray(local, dtype=float)
+    finite = np.isfinite(local).all(axis=1)
+    radius = np.full(local.shape[0], np.nan)
+    radius[finite] = np.linalg.norm(local[finite], axis=1)
+    near = finite & (radius < _FAR)
+    if near.all():
+        return _signed_distance_near(local, semi_axes, e1, e2, approximate_seeds)
+    out = radius.copy()  # NaN where not finite, |p| where far
+    if near.any():
+        out[near] = _signed_distance_near(local[near], semi_axes, e1, e2, approximate_seeds)
+    return out
+
+
+def _signed_distance_near(
+    local: Array,
+    semi_axes: tuple[float, float, float],
+    e1: float,
+    e2: float,
+    approximate_seeds: bool,
+) -> Array:
+    """:func:`signed_distance` for finite points within ``_FAR`` of the centre."""
     P, Q = 2.0 / e2, 2.0 / e1
     a = np.asarray(semi_axes, dtype=float)
     p = np.abs(local)

@@ -24,9 +24,11 @@ w = dsigma/dt, with x = w^2 and v = dx/dsigma (:mod:`.topp`):
   :math:`1 - \cos(\pi/K)` of the limit (3.4 % for K = 12) in the directions between two
   vertices.
 
-The rows hold at the samples (both ends of every interval); between samples see
-tests/time_scaling/test_rates.py. :meth:`RateModel.first_violation` judges sampled dq, ddq
-(the planners' verdict; the independent checker has its own).
+The rows hold at the samples (both ends of every interval). Between samples a trajectory
+means the cubic Hermite interpolant of :mod:`mmplan.interpolant`;
+:meth:`RateModel.interval_ratios` gives its extremes per step, which
+:func:`.retime.retime_path` holds by tightening, and :meth:`RateModel.first_violation` judges
+samples and interpolant (the planners' verdict; the independent checker has its own).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from mmplan import interpolant
 from mmplan.arrays import Array
 from mmplan.robot.limits import RateLimits
 from mmplan.robot.tree import JointKind
@@ -50,8 +53,8 @@ if TYPE_CHECKING:
 POLYGON_SIDES = 12
 #: Relative slack of the sample verdict (rounding of sqrt(x) q' against the bound).
 REL_TOL = 1e-9
-#: Relative slack of the step means (secants of q, differences of dq) in the verdict.
-INTERVAL_TOL = 1e-2
+#: Relative slack of the interpolant's step extremes in the verdict (as the checker's).
+INTERVAL_TOL = 1e-6
 
 Kind = Literal["velocity", "acceleration"]
 
@@ -78,8 +81,8 @@ class Quantity:
 class RateViolation:
     """The first sample (or step) at which a quantity exceeds its limit.
 
-    ``until`` is None for a sample; for a step [t, until] the value is its mean (the secant of
-    q for a velocity, the difference of dq for an acceleration).
+    ``until`` is None for a sample; for a step [t, until] the value is the peak of the cubic
+    Hermite interpolant on it (:mod:`mmplan.interpolant`).
     """
 
     quantity: Quantity
@@ -95,7 +98,7 @@ class RateViolation:
         """One line: what needs how much, when, against which limit."""
         q = self.quantity
         when = (f"at t = {self.t:.2f} s" if self.until is None
-                else f"on average over t = {self.t:.2f} .. {self.until:.2f} s")  # fmt: skip
+                else f"between the samples at t = {self.t:.2f} and {self.until:.2f} s")  # fmt: skip
         text = f"{q.label} needs {self.value:.3g} {q.unit} {when}, limit {q.limit:.3g}"
         if self.samples > 1:
             what = "samples" if self.until is None else "steps"
@@ -239,25 +242,25 @@ class RateModel:
             return np.column_stack([q.values(dq, ddq) / q.limit for q in self.quantities])
 
     def interval_ratios(self, t: Array, q: Array, dq: Array) -> Array:
-        """Mean over each step / limit, (N - 1, len(quantities)): velocities from the secants
-        of q, accelerations from the differences of dq (what a controller interpolating the
-        samples linearly commands; 0 on a step of infinite length)."""
+        """Peak over each step / limit, (N - 1, len(quantities)): the extremes of the cubic
+        Hermite interpolant through (t, q, dq) (:mod:`mmplan.interpolant`, the meaning of a
+        trajectory between its samples); 0 on a step of non-finite length."""
         if not self.quantities or len(t) < 2:
             return np.zeros((max(len(t) - 1, 0), len(self.quantities)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv = np.where(np.isfinite(np.diff(t)), 1.0 / np.diff(t), 0.0)
         out = []
         for qt in self.quantities:
-            d = np.diff((q if qt.kind == "velocity" else dq)[:, list(qt.index)], axis=0)
-            out.append(np.sqrt(np.sum(d * d, axis=1)) * inv / qt.limit)
+            peak = (interpolant.peak_velocity if qt.kind == "velocity"
+                    else interpolant.peak_acceleration)(t, q, dq, qt.index)  # fmt: skip
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out.append(peak / qt.limit)
         return np.column_stack(out)
 
     def first_violation(
         self, t: Array, dq: Array, ddq: Array, q: Array | None = None
     ) -> RateViolation | None:
         """The earliest sample at which a quantity exceeds its limit (beyond :data:`REL_TOL`,
-        NaN counting as exceeding); when none and ``q`` is given, the earliest step whose mean
-        (:meth:`interval_ratios`) exceeds it beyond :data:`INTERVAL_TOL`. None when every
+        NaN counting as exceeding); when none and ``q`` is given, the earliest step on which the
+        interpolant (:meth:`interval_ratios`) exceeds it beyond :data:`INTERVAL_TOL`. None when every
         limit holds."""
         r = self.ratios(dq, ddq)
         found = _first(r, REL_TOL)
@@ -280,7 +283,8 @@ class RateModel:
 
     def stretch(self, t: Array, q: Array, dq: Array, ddq: Array) -> float:
         """Smallest factor c >= 1 such that the uniform re-timing t -> c t (dq / c, ddq / c^2)
-        keeps every limit at the samples and on the step means (which scale alike):
+        keeps every limit at the samples and on the interpolant between them (which scales alike:
+        the Hermite of the stretched samples is the stretched Hermite):
         max(1, velocity ratios, sqrt(acceleration ratios)); inf when a ratio is not finite
         (NaN, or a zero limit on a quantity that moves)."""
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -18,8 +18,9 @@ Pass criteria (:meth:`CheckReport.failures` names each one that fails):
   ddq vs dq likewise (reported, not a pass criterion: kinematic planners may have jumps);
 * status ``reached`` exactly when the task is completed (T(tol) exists and the trajectory
   covers the task: a path's duration, a segment's parameter 1);
-* velocity and acceleration limits at every sample, on the dq/ddq columns (slack 1e-6
-  relative) and on finite differences of q and dq (1 %), :mod:`.rates`.
+* velocity and acceleration limits on the dq/ddq columns and on what every motion through
+  two consecutive samples needs (secants of q, least peak acceleration from q and dq),
+  slack 1e-6 relative, :mod:`.rates`.
 """
 
 from __future__ import annotations

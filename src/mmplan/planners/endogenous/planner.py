@@ -30,7 +30,8 @@ Scenario form (docs/conventions.md, docs/endogenous.md)::
 
 Rate limits (``robot.limits.rates``): the plan is re-timed uniformly, t -> c t with the
 smallest c >= 1 that keeps every velocity and acceleration limit at the samples and on the
-step means (:meth:`~mmplan.time_scaling.rates.RateModel.stretch`). For the driftless platform
+cubic Hermite interpolant between them (:meth:`~mmplan.time_scaling.rates.RateModel.stretch`;
+the interpolant of the stretched samples is the stretched interpolant). For the driftless platform
 (dq_p = G(q_p) u) and the arm's blend this is exact: the same path, the same end point, the
 horizon c T and the controls u / c (a Fourier series on [0, c T] with coefficients lambda / c).
 A plan that would need a horizon above ``t_max``, or an unbounded c (a zero limit on a moving

@@ -11,8 +11,9 @@ them (unlike u in eq. (23)). The ``u`` column is w: 0 at the start (gravity only
 u0 = 0 of [PajakPajak]), 1 where the limits do not bind.
 
 Velocity and acceleration limits (``robot.limits.rates``) are held the same way, exactly at
-every sample (:mod:`mmplan.time_scaling.rates`) and on the mean of every step
-(:mod:`mmplan.time_scaling.retime`): with rate limits the planner always re-times its path.
+every sample (:mod:`mmplan.time_scaling.rates`) and on the cubic Hermite interpolant between
+the samples, the trajectory's meaning there (:mod:`mmplan.interpolant`, tightened by
+:mod:`mmplan.time_scaling.retime`): with rate limits the planner always re-times its path.
 Time mode (torque limits with obstacles, or no torque control at all) scales the free
 generator path under efforts and rates together (:func:`rollout_time_scaled`); feedback mode
 keeps its virtual control and re-times the path it produced (:func:`retime`, the

@@ -4,9 +4,10 @@ The trajectory's ddq is the central difference of dq; the clearance is measured 
 against the scene's (original) obstacles at the robot's collision spheres.
 
 Rate limits (``robot.limits.rates``): a tracker follows a path given in time, so it cannot
-slow down; a plan whose velocities or accelerations exceed a limit, at a sample or on the mean
-of a step (:meth:`~mmplan.time_scaling.rates.RateModel.first_violation`), is ``infeasible``
-and the message names the quantity, the time and the limit.
+slow down; a plan whose velocities or accelerations exceed a limit, at a sample or on the
+cubic Hermite interpolant between samples (:mod:`mmplan.interpolant`, the trajectory's meaning
+there; :meth:`~mmplan.time_scaling.rates.RateModel.first_violation`, slack 1e-6), is
+``infeasible`` and the message names the quantity, the time and the limit.
 """
 
 from __future__ import annotations
