@@ -1,7 +1,10 @@
 """Extended-Jacobian planner ([PajakPajak], [Pajak]): the four paper scenarios, per-step timing.
 
-Part 1 plans ``youbot4r-reach``, ``youbot4r-reach-smooth``, ``youbot3r-obstacles`` and
-``youbot3r-obstacles-torque`` with the generator compiled to C (CasADi code generation) and
+Part 1 plans the papers' runs, ``youbot4r-reach-unlimited``, ``youbot4r-reach-smooth-unlimited``,
+``youbot3r-obstacles-unlimited`` and ``youbot3r-obstacles-torque-unlimited`` (no velocity or
+acceleration limits, as in the papers), then the same four with the youBot's rate limits
+(``youbot4r-reach`` ..., re-timed by the time scaling) with the generator compiled to C (CasADi
+code generation) and
 prints T(1 cm) / T(1 mm), clearance (exact geometry, original obstacles), torque maxima and
 limit violation, max cond(E), peak platform speed, manipulability, and motion duration /
 compute time: "warm" is a replan with the generator cached (:mod:`ej_cache`: same robot and
@@ -10,7 +13,8 @@ analysis not counted in compute_time_s, is off), "cold" the first plan in
 the process (symbolic build, compiled C library loaded from the disk cache), against the
 baseline of the step-by-step loop (``rollout(fast=False)``: one ``terms`` and one RK4 call
 a step, generator cached, best of 3) with the same compiled functions, in the same run.
-Part 1b: accuracy and speed of youbot3r-obstacles (and -torque) against the step size.
+Part 1b: accuracy and speed of youbot3r-obstacles-unlimited (and -torque-unlimited, the
+papers' runs) and of youbot3r-obstacles-torque (rate limits) against the step size.
 
 Part 2 times one generator step at the same state, compiled C against the baseline of the
 same CasADi SX functions evaluated by CasADi's virtual machine (not code-generated), in the
@@ -51,25 +55,23 @@ from mmplan.scenario.loader import load_scenario
 from mmplan.task import ReachPoint, completion_time
 from mmplan.trajectory import PlanResult
 
-SCENARIOS = (
-    "youbot4r-reach",
-    "youbot4r-reach-smooth",
-    "youbot3r-obstacles",
-    "youbot3r-obstacles-torque",
-)
+#: The papers' runs (no rate limits) and their reported T, then the youBot's rate limits.
 PAPER = {
-    "youbot4r-reach": "7.13 s",
-    "youbot4r-reach-smooth": "7.34 s",
-    "youbot3r-obstacles": "44.6 s",
-    "youbot3r-obstacles-torque": "49.4 s",
+    "youbot4r-reach-unlimited": "7.13 s",
+    "youbot4r-reach-smooth-unlimited": "7.34 s",
+    "youbot3r-obstacles-unlimited": "44.6 s",
+    "youbot3r-obstacles-torque-unlimited": "49.4 s",
 }
+LIMITED = ("youbot4r-reach", "youbot4r-reach-smooth", "youbot3r-obstacles",
+           "youbot3r-obstacles-torque")
+SCENARIOS = (*PAPER, *LIMITED)
 
 
 def plan_scenarios() -> None:
-    """Part 1: the four paper scenarios, compiled."""
+    """Part 1: the four paper scenarios, without and with rate limits, compiled."""
     print(
-        "scenario                    status   T1cm   T1mm  paper   clear  |tau|max (violation)"
-        "   cond(E)  v_max   mu0->mu1         motion/compute warm (cold)"
+        "scenario                             status   T1cm   T1mm  paper   clear  "
+        "|tau|max (violation)   cond(E)  v_max   mu0->mu1         motion/compute warm (cold)"
     )
     for name in SCENARIOS:
         problem = load_scenario(name).build()
@@ -106,7 +108,8 @@ def plan_scenarios() -> None:
         rollout_s = result.compute_time_s  # warm: build_time_s is 0
         mu0, mu1 = robot.manipulability(tr.q[0]), robot.manipulability(tr.q[-1])
         print(
-            f"{name:27s} {result.status.value:8s} {_f(t1)} {_f(t2)} {PAPER[name]:7s} {clear} "
+            f"{name:36s} {result.status.value:8s} {_f(t1)} {_f(t2)} {PAPER.get(name, '  -'):7s} "
+            f"{clear} "
             f"wheels {wheels[0]:.2f}/{wheels[1]:.2f} ({viol:.3f})  "
             f"{result.info['max_cond_E']:8.3g} {speed:5.2f}  {mu0:.5f}->{mu1:.5f}  "
             f"{tr.duration / rollout_s:6.0f} ({tr.duration / cold.compute_time_s:5.0f})"
@@ -355,6 +358,7 @@ if __name__ == "__main__":
         random_scenarios(int(sys.argv[2]))
     else:
         plan_scenarios()
-        dt_study("youbot3r-obstacles")
+        dt_study("youbot3r-obstacles-unlimited")
+        dt_study("youbot3r-obstacles-torque-unlimited")
         dt_study("youbot3r-obstacles-torque")
         time_steps()

@@ -3,8 +3,10 @@
 Each cycle the loop reads the state (q, dq), asks the generator for (ddq, tau, u) and applies
 it. Here the "robot" is a simulation: it integrates ddq (semi-implicit Euler, one generator
 call per cycle of the scenario's dt) and keeps the wheels rolling by projecting dq into
-ker A(q) (wheel metric, as the planner does). The scenario is youbot4r-reach-smooth: wheel
-torques limited to +-0.2 N m, virtual control u ([Pajak]) starting at 0.
+ker A(q) (wheel metric, as the planner does). The scenario is [Pajak]'s run,
+youbot4r-reach-smooth-unlimited: wheel torques limited to +-0.2 N m, virtual control u
+starting at 0, no velocity or acceleration limits (the online step does not hold those: the
+planner holds them by re-timing a whole plan, docs/extended_jacobian.md).
 
 Run: ``python examples/control_loop.py [SECONDS] [--compiled]`` (``--compiled`` generates C
 for the step: a one-time build of a few seconds, then about 8 us a call instead of ~100 us).
@@ -23,7 +25,7 @@ from mmplan.planners.extended_jacobian.generator import wheel_metric_inverse
 
 
 def main(seconds: float, compiled: bool) -> None:
-    problem = mmplan.load_scenario("youbot4r-reach-smooth").build()
+    problem = mmplan.load_scenario("youbot4r-reach-smooth-unlimited").build()
     settings = problem.settings.model_copy(update={"codegen": compiled})
     problem = dataclasses.replace(problem, settings=settings)
     robot, goal = problem.robot, np.asarray(problem.task.position, dtype=float)

@@ -2,7 +2,8 @@
 
 Integrates the kinematics with RK4 at step ``dt`` and stops as soon as the task error is
 below the tolerance (status ``reached``) or at ``t_max`` (status ``timeout``); ddq by
-differentiating dq along the samples. Honest by construction: the status is the measured
+differentiating dq along the samples, tau the model's efforts of that motion (a plan of a
+robot with torque limits carries them). Honest by construction: the status is the measured
 error at the last sample. ``sleep_s`` makes the run slow (to exercise the progress bar).
 """
 
@@ -69,7 +70,8 @@ class EtaPlanner(Planner[EtaSettings, Task]):
         dq = np.array([f(q) for q in q_arr])
         ddq = np.gradient(dq, t, axis=0) if len(t) > 1 else np.zeros_like(dq)
         ee_arr = np.array([robot.ee_position(q) for q in q_arr])
-        traj = Trajectory(robot.coordinates, t, q_arr, dq, ddq, ee_arr)
+        tau = np.array([robot.actuator_efforts(*x) for x in zip(q_arr, dq, ddq, strict=True)])
+        traj = Trajectory(robot.coordinates, t, q_arr, dq, ddq, ee_arr, robot.actuators, tau)
         return Solution(status, traj, message=f"{status.value} after {len(t)} samples",
                         info={"steps": len(t) - 1, "eta_norm": float(np.linalg.norm(eta))},
                         history={"error": np.linalg.norm(ee_arr - ee_arr[-1], axis=1)})

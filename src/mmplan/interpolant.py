@@ -38,28 +38,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from mmplan.arrays import Array
+from mmplan.arrays import Array, BoolArray
 
 #: Sub-samples per step that bracket the interior maximum of a planar speed.
 SPEED_SUBSAMPLES = 8
 _BISECTIONS = 48
 
 
-def _steps(t: Array) -> tuple[Array, Array]:
+def _steps(t: Array) -> tuple[Array, BoolArray]:
     """Step lengths (N - 1, 1) and a mask of finite positive ones (N - 1,)."""
     h = np.diff(np.asarray(t, dtype=float))
-    ok = np.isfinite(h) & (h > 0.0)
-    return np.where(ok, h, 1.0)[:, None], ok
+    ok: BoolArray = np.isfinite(h) & (h > 0.0)
+    return np.asarray(np.where(ok, h, 1.0)[:, None], dtype=float), ok
 
 
 def step_accelerations(t: Array, q: Array, dq: Array) -> tuple[Array, Array]:
     """Acceleration of the interpolant at the start (a) and end (b) of every step, each
     (N - 1, n); zero on steps of non-finite length."""
-    h, ok = _steps(t)
-    dpos = np.diff(q, axis=0) / h
-    a = (6.0 * dpos - 4.0 * dq[:-1] - 2.0 * dq[1:]) / h
-    b = (-6.0 * dpos + 2.0 * dq[:-1] + 4.0 * dq[1:]) / h
-    return np.where(ok[:, None], a, 0.0), np.where(ok[:, None], b, 0.0)
+    steps = Steps(t, q, dq)
+    return steps.a, steps.b
 
 
 def evaluate(t: Array, q: Array, dq: Array, times: Array) -> tuple[Array, Array, Array]:
@@ -82,32 +79,59 @@ def evaluate(t: Array, q: Array, dq: Array, times: Array) -> tuple[Array, Array,
 def peak_acceleration(t: Array, q: Array, dq: Array, index: tuple[int, ...]) -> Array:
     """Largest |ddq_j| (one index) or planar norm (two) of the interpolant on each step
     (N - 1,): the larger of its two ends."""
-    a, b = step_accelerations(t, q, dq)
-    cols = list(index)
-    na = np.sqrt(np.sum(a[:, cols] ** 2, axis=1))
-    nb = np.sqrt(np.sum(b[:, cols] ** 2, axis=1))
-    return np.asarray(np.maximum(na, nb), dtype=float)
+    return Steps(t, q, dq).peak_acceleration(index)
 
 
 def peak_velocity(t: Array, q: Array, dq: Array, index: tuple[int, ...]) -> Array:
     """Largest |dq_j| (one index) or planar speed (two) of the interpolant on each step,
     (N - 1,) (module docstring); on steps of non-finite length the larger end value."""
-    h, ok = _steps(t)
-    a, b = step_accelerations(t, q, dq)
-    cols = list(index)
-    v0, v1 = dq[:-1, cols], dq[1:, cols]
-    p1, p2 = h * a[:, cols], 0.5 * h * (b[:, cols] - a[:, cols])  # dq(s) = v0 + p1 s + p2 s^2
-    ends = np.maximum(np.sqrt(np.sum(v0**2, axis=1)), np.sqrt(np.sum(v1**2, axis=1)))
-    if len(cols) == 1:
-        v0, p1, p2 = v0[:, 0], p1[:, 0], p2[:, 0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.where(p2 != 0.0, -p1 / (2.0 * p2), -1.0)  # vertex of the quadratic
-        inside = ok & (s > 0.0) & (s < 1.0)
-        s = np.where(inside, s, 0.0)
-        vertex = np.abs(v0 + s * (p1 + s * p2))
-        return np.asarray(np.where(inside, np.maximum(ends, vertex), ends), dtype=float)
-    return np.asarray(np.where(ok, np.maximum(ends, _planar_interior(v0, p1, p2)), ends),
-                      dtype=float)
+    return Steps(t, q, dq).peak_velocity(index)
+
+
+class Steps:
+    """The interpolant of one trajectory, step by step: lengths and end accelerations computed
+    once, for the peaks of several quantities (:meth:`peak_velocity`, :meth:`peak_acceleration`).
+
+    Attributes:
+        h: Step lengths (N - 1, 1) (1 where not finite and positive).
+        ok: Steps of finite positive length (N - 1,).
+        a, b: Acceleration at the start and end of every step (N - 1, n); 0 where not ``ok``.
+        dq: The velocities (N, n).
+    """
+
+    def __init__(self, t: Array, q: Array, dq: Array) -> None:
+        self.h, self.ok = _steps(t)
+        dpos = np.diff(q, axis=0) / self.h
+        a = (6.0 * dpos - 4.0 * dq[:-1] - 2.0 * dq[1:]) / self.h
+        b = (-6.0 * dpos + 2.0 * dq[:-1] + 4.0 * dq[1:]) / self.h
+        self.a = np.asarray(np.where(self.ok[:, None], a, 0.0), dtype=float)
+        self.b = np.asarray(np.where(self.ok[:, None], b, 0.0), dtype=float)
+        self.dq = dq
+
+    def peak_acceleration(self, index: tuple[int, ...]) -> Array:
+        """See :func:`peak_acceleration`."""
+        cols = list(index)
+        na = np.sqrt(np.sum(self.a[:, cols] ** 2, axis=1))
+        nb = np.sqrt(np.sum(self.b[:, cols] ** 2, axis=1))
+        return np.asarray(np.maximum(na, nb), dtype=float)
+
+    def peak_velocity(self, index: tuple[int, ...]) -> Array:
+        """See :func:`peak_velocity`."""
+        cols, h, ok = list(index), self.h, self.ok
+        a, b = self.a[:, cols], self.b[:, cols]
+        v0, v1 = self.dq[:-1, cols], self.dq[1:, cols]
+        p1, p2 = h * a, 0.5 * h * (b - a)  # dq(s) = v0 + p1 s + p2 s^2
+        ends = np.maximum(np.sqrt(np.sum(v0**2, axis=1)), np.sqrt(np.sum(v1**2, axis=1)))
+        if len(cols) == 1:
+            v0, p1, p2 = v0[:, 0], p1[:, 0], p2[:, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s = np.where(p2 != 0.0, -p1 / (2.0 * p2), -1.0)  # vertex of the quadratic
+            inside = ok & (s > 0.0) & (s < 1.0)
+            s = np.where(inside, s, 0.0)
+            vertex = np.abs(v0 + s * (p1 + s * p2))
+            return np.asarray(np.where(inside, np.maximum(ends, vertex), ends), dtype=float)
+        return np.asarray(np.where(ok, np.maximum(ends, _planar_interior(v0, p1, p2)), ends),
+                          dtype=float)
 
 
 def _planar_interior(v0: Array, p1: Array, p2: Array) -> Array:

@@ -127,7 +127,9 @@ def _fast_plan(tmp_path: Path) -> Path:
     dq[:, j] = 1e-3 * w * np.cos(w * t)
     ddq[:, j] = -1e-3 * w * w * np.sin(w * t)
     ee = np.array([robot.ee_position(x) for x in q])
-    tr = mmplan.Trajectory(robot.coordinates, t, q, dq, ddq, ee)
+    tau = np.array([robot.actuator_efforts(*row) for row in zip(q, dq, ddq, strict=True)])
+    tr = mmplan.Trajectory(robot.coordinates, t, q, dq, ddq, ee, actuators=robot.actuators,
+                           tau=tau)  # the robot has torque limits: the checker wants efforts
     result = mmplan.PlanResult(mmplan.Status.STALLED, tr, METHOD)
     return mmplan.write_plan(tmp_path / "fast", result, problem, sc)
 

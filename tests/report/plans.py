@@ -149,3 +149,46 @@ def make_plan_dir(
         tip_acceleration=1.0 / (1.0 + (freq - 15.0) ** 2),
     )
     return folder
+
+
+#: TIAGo's start: torso half way up, the arm bent (q in tiago's coordinate order, n = 13).
+TIAGO_START = [0.0, 0.0, 0.0, 0.0, 0.0, 0.15, 0.3, 0.2, 0.0, 1.2, 0.0, 0.0, 0.0]
+#: Constant eta of the test planner: both wheels forward (the right one faster, a left turn),
+#: torso up, every arm joint turning.
+TIAGO_ETA = [3.0, 4.0, 0.02, 0.3, 0.1, -0.2, 0.25, 0.3, 0.2, 0.5]
+
+
+def make_tiago_plan_dir(folder: Path, seconds: float = 4.0) -> Path:
+    """A TIAGo plan written by the test planner (``tests/eta_planner.py``, dq = N(q) eta):
+    the platform drives a left curve past a table-sized box and a cylinder while the torso
+    rises and the arm turns; the goal is where the end effector is after ``seconds``, so the
+    plan reaches it. Efforts from the robot's dynamics (the checker asks for them)."""
+    import dataclasses
+
+    from mmplan import Scenario, Trajectory, get_planner, write_plan
+    from tests.eta_planner import METHOD
+
+    data: dict[str, Any] = {
+        "name": "tiago-report-test",
+        "robot": "tiago",
+        "start": TIAGO_START,
+        "goal": {"position": [5.0, 5.0, 1.0], "tolerance": 0.01},
+        "obstacles": [
+            {"shape": "box", "center": [1.6, -0.9, 0.35], "size": [0.8, 0.6, 0.7], "yaw": 0.2},
+            {"shape": "cylinder", "base_center": [0.6, 1.4, 0.0], "radius": 0.25, "height": 1.0},
+        ],
+        "planner": {"method": METHOD, "eta": TIAGO_ETA, "t_max": seconds, "dt": 0.02},
+    }
+    first = get_planner(METHOD)().plan(Scenario.from_dict(data).build())
+    data["goal"]["position"] = [float(v) for v in first.trajectory.ee[-1]]
+    data["planner"]["t_max"] = seconds + 1.0
+    scenario = Scenario.from_dict(data)
+    problem = scenario.build()
+    result = get_planner(METHOD)().plan(problem)
+    tr, robot = result.trajectory, problem.robot
+    tau = np.array([robot.actuator_efforts(q, dq, ddq)
+                    for q, dq, ddq in zip(tr.q, tr.dq, tr.ddq, strict=True)])
+    with_efforts = Trajectory(tr.coordinates, tr.t, tr.q, tr.dq, tr.ddq, tr.ee,
+                              robot.actuators, tau)
+    write_plan(folder, dataclasses.replace(result, trajectory=with_efforts), problem, scenario)
+    return folder

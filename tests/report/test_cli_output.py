@@ -15,6 +15,7 @@ import pytest
 import mmplan
 from mmplan.cli import output
 from mmplan.verify.check import CheckReport
+from mmplan.verify.consistency import Consistency
 
 
 def _report(**changes: Any) -> CheckReport:
@@ -24,10 +25,12 @@ def _report(**changes: Any) -> CheckReport:
         "joint_where": "", "max_torque_violation": 0.0, "torque_where": "",
         "torque_source": "trajectory", "tau_model_deviation": 1e-15,
         "max_pfaffian_residual": 5e-16, "pfaffian_where": "", "dq_residual": 0.2,
-        "dq_scale": 16.0, "ddq_residual": 30.2, "ddq_scale": 37.0, "duration_s": 13.78,
+        "dq_scale": 16.0, "ddq_scale": 37.0, "duration_s": 13.78,
         "duration_1cm_s": 11.38, "duration_1mm_s": 13.78, "final_error_m": 4.9e-4,
         "tolerance": 1e-3, "task_completed": True, "manipulability_start": 0.0097,
         "manipulability_end": 0.0198, "manipulability_min": 0.0097, "status": "reached",
+        "consistency": Consistency(required=("tau.*", "u"), tau_model_deviation=1e-15,
+                                   ddq_excess=5.22, ddq_allowed=9.99),
     }
     names = {f.name for f in dataclasses.fields(CheckReport)}
     values = {k: v for k, v in values.items() if k in names}
@@ -51,13 +54,20 @@ def test_check_prints_each_quantity_with_its_threshold(
     assert rows["trajectory end"].startswith("14.5 s")
     assert re.search(r"must be <= 1e-06 m/s", rows["pfaffian residual"])
     assert "must be <= 0.16 /s (0.01 x max |dq| 16)" in rows["dq residual"]
-    assert rows["ddq residual"].startswith("30.2 /s") and "no threshold" in rows["ddq residual"]
+    assert rows["ddq vs interpolant"].startswith("5.22") and "must be <= 9.99" in rows[
+        "ddq vs interpolant"]
+    assert rows["tau vs model"].startswith("1e-15") and "must be <= 1e-06" in rows[
+        "tau vs model"]
+    assert rows["start vs scenario"].startswith("0, t0 = 0 s") and "must be <= 1e-09" in rows[
+        "start vs scenario"]
+    assert rows["effort columns"].startswith("complete") and "tau.*, u" in rows[
+        "effort columns"]
     assert "must be >= 0 m" in rows["min clearance"]
     assert "must be <= 1e-09" in rows["joint limit violation"]
     assert "must be <= 1e-06" in rows["torque violation"]
     assert "must be <= 1e-06 m" in rows["ee vs FK"]
     assert "must agree" in rows["status (claimed)"]
-    for label in ("T(1 cm)", "T(1 mm)", "final error", "tau vs model", "manipulability"):
+    for label in ("T(1 cm)", "T(1 mm)", "final error", "manipulability"):
         assert "info" in rows[label], label  # reported, not a pass criterion
 
 

@@ -1,6 +1,8 @@
 """The report in headless Chromium: it loads with a silent console, every figure decodes, the
 3D view (meshcat's viewer) holds the robot's bodies, and Play moves the robot (its pixels
-change). Screenshots are saved in the test's tmp dir (report.png, playing.png).
+change). Screenshots are saved in the test's tmp dir (report.png, playing.png). Two robots:
+the youBot of a hand-made plan (drawn from its model) and TIAGo (drawn with its URDF's link
+meshes; skipped, with the reason shown, without Pinocchio or example-robot-data).
 
 Needs Debian's ``chromium``. Where it is missing the test is skipped with a visible reason,
 except under CI (``CI`` set in the environment), which installs it: there a missing browser
@@ -19,6 +21,7 @@ from typing import Any
 
 import pytest
 
+from mmplan.errors import InputError
 from tests.report.plans import make_plan_dir
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
@@ -78,23 +81,32 @@ window.addEventListener("load", function () {
   }
   setTimeout(function () {
     out.ready = root.dataset.ready;
-    var robot = view.viewer.scene_tree.find(["robot"]), meshes = 0;
-    robot.object.traverse(function (o) { if (o.isMesh) meshes += 1; });
+    var robot = view.viewer.scene_tree.find(["robot"]), meshes = 0, triangles = 0;
+    robot.object.traverse(function (o) {
+      if (!o.isMesh) return;
+      meshes += 1;
+      var g = o.geometry;
+      triangles += (g.index ? g.index.count : g.attributes.position.count) / 3;
+    });
     out.bodies = Object.keys(robot.children);
+    out.pieces = {};
+    out.bodies.forEach(function (b) { out.pieces[b] = Object.keys(robot.children[b].children); });
     out.meshes = meshes;
+    out.triangles = triangles;
     out.obstacles = Object.keys(view.viewer.scene_tree.find(["obstacles"]).children);
     var before = pixels(), drawn = 0;
     for (var i = 3; i < before.length; i += 4) if (before[i] > 0) drawn++;
     out.drawn = drawn / (before.length / 4);
-    var tool = view.node("robot/link3").position.clone();
+    var tracked = window.__tracked || "robot/link3";
+    var tool = view.node(tracked).position.clone();
     root.querySelector("button.play").click();
     setTimeout(function () {
       out.changed = changed(before, pixels());
       out.played = view.animator.time;
-      out.moved = view.node("robot/link3").position.distanceTo(tool);
+      out.moved = view.node(tracked).position.distanceTo(tool);
       out.clock = root.querySelector(".clock").textContent;
       var slider = root.querySelector("input.time");
-      slider.value = "4";
+      slider.value = String(window.__seek || 4);
       slider.dispatchEvent(new Event("input"));
       out.slider = root.dataset.time;
       out.labels = root.querySelectorAll(".labels .label").length;
@@ -154,15 +166,15 @@ def _probe(dom: str) -> dict[str, Any]:
     return result
 
 
-def test_report_renders_and_plays_in_headless_chromium(tmp_path: Path) -> None:
-    from mmplan.report import write_report
-
-    browser = _browser()
-    folder = make_plan_dir(tmp_path / "plan", samples=401)
-    report = write_report(folder, max_frames=201)
+def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: float,
+              play_ms: int = 4000) -> dict[str, Any]:
+    """Open the report as it is (silent console, every figure decoded, the viewer ready),
+    then with the probe (what it saw, returned), then take the screenshots: still
+    (report.png) and ``play_ms`` into the page with Play pressed after 0.2 s (playing.png),
+    which must differ. (Each frame played is drawn in software: many triangles make it slow.)"""
     html = report.read_text()
     figures = html.count("<figure ")
-    assert figures >= 10
+    assert figures >= 7
 
     plain = _run(browser, report, tmp_path / "profile0", 4000, "--dump-dom")
     assert plain.returncode == 0, plain.stderr[-2000:]
@@ -170,8 +182,9 @@ def test_report_renders_and_plays_in_headless_chromium(tmp_path: Path) -> None:
     assert int(_attr(plain.stdout, "figures-loaded")) == figures  # every inline PNG decoded
     assert re.search(r'id="mmplan-viewer"[^>]*data-ready="yes"', plain.stdout)
 
-    probed = folder / "probed.html"
-    probed.write_text(html.replace("<head>", "<head>" + HEAD_PROBE, 1)
+    probed = report.parent / "probed.html"
+    setup = f"<script>window.__tracked = {json.dumps(tracked)}; window.__seek = {seek};</script>"
+    probed.write_text(html.replace("<head>", "<head>" + HEAD_PROBE + setup, 1)
                       .replace("</body>", TAIL_PROBE))
     run = _run(browser, probed, tmp_path / "profile1", 8000, "--dump-dom")
     assert run.returncode == 0, run.stderr[-2000:]
@@ -179,24 +192,76 @@ def test_report_renders_and_plays_in_headless_chromium(tmp_path: Path) -> None:
     seen = _probe(run.stdout)
     assert seen["problems"] == []
     assert seen["ready"] == "yes"
-    assert {"platform", "wheel1", "wheel2", "link1", "link2", "link3"} <= set(seen["bodies"])
-    assert seen["meshes"] >= 12  # box, wheels with spokes, joints, links, tool
-    assert seen["obstacles"] == ["1_superellipsoid", "2_sphere", "3_cylinder"]
-    assert seen["drawn"] > 0.02  # grid, obstacles, paths, robot (transparent elsewhere)
     assert 1.1 < seen["played"] <= 1.55  # about 1.5 s of play at 1x (virtual time)
-    assert seen["moved"] > 0.05  # the last link moved [m] ...
-    assert seen["changed"] > 0.005  # ... and so did its pixels
-    assert seen["clock"] == f"t = {seen['played']:.2f} s of 8.00 s"
-    assert float(seen["slider"]) == 4.0
-    assert seen["labels"] >= 5  # grid scale, obstacles, start, goal
+    assert seen["changed"] > 0.005  # the robot's pixels changed
+    assert float(seen["slider"]) == pytest.approx(seek, abs=0.005)  # on the slider's steps
     assert seen["fetched"] == [] and seen["sockets"] == 0  # nothing loaded, no server
 
     shot = tmp_path / "report.png"
     still = _run(browser, report, tmp_path / "profile2", 3000, f"--screenshot={shot}")
     assert still.returncode == 0 and shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    playing = folder / "playing.html"
+    playing = report.parent / "playing.html"
     playing.write_text(html.replace("</body>", AUTOPLAY))
     moving = tmp_path / "playing.png"
-    later = _run(browser, playing, tmp_path / "profile3", 4000, f"--screenshot={moving}")
+    later = _run(browser, playing, tmp_path / "profile3", play_ms, f"--screenshot={moving}")
     assert later.returncode == 0 and moving.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert moving.read_bytes() != shot.read_bytes()
+    return seen
+
+
+def test_report_renders_and_plays_in_headless_chromium(tmp_path: Path) -> None:
+    from mmplan.report import write_report
+
+    browser = _browser()
+    folder = make_plan_dir(tmp_path / "plan", samples=401)
+    report = write_report(folder, max_frames=201)
+    assert report.read_text().count("<figure ") >= 10
+    seen = _exercise(browser, report, tmp_path, "robot/link3", 4.0)
+    assert {"platform", "wheel1", "wheel2", "link1", "link2", "link3"} <= set(seen["bodies"])
+    assert seen["meshes"] >= 12  # box, wheels with spokes, joints, links, tool
+    assert seen["obstacles"] == ["1_superellipsoid", "2_sphere", "3_cylinder"]
+    assert seen["drawn"] > 0.02  # grid, obstacles, paths, robot (transparent elsewhere)
+    assert seen["moved"] > 0.05  # the last link moved [m]
+    assert seen["clock"] == f"t = {seen['played']:.2f} s of 8.00 s"
+    assert seen["labels"] >= 5  # grid scale, obstacles, start, goal
+
+
+def _tiago_data() -> None:
+    """Skip (with the reason shown) without Pinocchio or example-robot-data."""
+    try:
+        import pinocchio  # noqa: F401
+
+        from mmplan.robot.robot_data import robot_data_file
+
+        robot_data_file("tiago_description/robots/tiago.urdf")
+    except ImportError:
+        pytest.skip("TIAGo needs Pinocchio: pip install 'mmplan[urdf]'")
+    except InputError as exc:
+        pytest.skip(f"no TIAGo URDF: {exc}")
+
+
+def test_tiago_report_shows_its_link_meshes_and_plays(tmp_path: Path) -> None:
+    """A TIAGo plan (test planner): the 3D view holds TIAGo's bodies drawn with its URDF
+    meshes (held head and casters in place), and playing moves the arm."""
+    from mmplan.report import write_report
+    from tests.report.plans import make_tiago_plan_dir
+
+    _tiago_data()
+    browser = _browser()
+    folder = make_tiago_plan_dir(tmp_path / "plan")
+    report = write_report(folder, max_frames=201)
+    assert report.stat().st_size < 15e6
+    seen = _exercise(browser, report, tmp_path, "robot/arm_7_link", 2.0, play_ms=1500)
+    arm = {f"arm_{k}_link" for k in range(1, 8)}
+    assert {"platform", "wheel_left_link", "wheel_right_link", "torso_lift_link"} | arm \
+        <= set(seen["bodies"])
+    pieces = seen["pieces"]
+    assert {"base_link", "base_cover_link", "caster_front_left_1_link", "torso_fixed_link"} \
+        <= set(pieces["platform"])  # casters held: drawn on the platform
+    assert {"torso_lift_link", "head_1_link", "head_2_link"} <= set(pieces["torso_lift_link"])
+    assert {"hand_palm_link", "tool"} <= set(pieces["arm_7_link"])  # the held hand
+    assert "wheel_left_link" in pieces["wheel_left_link"]
+    assert seen["meshes"] >= 60 and seen["triangles"] >= 100_000  # URDF meshes, not boxes
+    assert seen["moved"] > 0.3  # the arm's last link moved [m] (the platform drives)
+    assert seen["obstacles"] == ["1_box", "2_cylinder"]
+    assert seen["clock"] == f"t = {seen['played']:.2f} s of 3.98 s"

@@ -9,10 +9,12 @@ import pytest
 
 from mmplan import LinePath, Problem, Scenario, Trajectory, get_robot
 from mmplan.verify.check import DQ_REL_TOL, check
+from mmplan.verify.consistency import TAU_MODEL_TOL
 from tests.eta_planner import METHOD
 
 CONTRACT_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
-             "final_error_m", "min_clearance_m", "max_joint_limit_violation",
+             "final_error_m", "min_clearance_m", "min_self_clearance_m",
+             "max_joint_limit_violation",
              "max_torque_violation", "max_pfaffian_residual", "manipulability_start",
              "manipulability_end", "manipulability_min", "compute_time_s", "samples",
              "peak_platform_speed_mps", "peak_platform_yaw_rate_radps",
@@ -24,7 +26,9 @@ R_WHEEL = 0.05
 
 def drive(v: float = 0.2, T: float = 2.0, dt: float = 0.01, lateral: bool = False,
           **columns: Any) -> Trajectory:
-    """youbot-3r driving straight along x (wheels rolling) or sliding sideways along y."""
+    """youbot-3r driving straight along x (wheels rolling) or sliding sideways along y, with
+    the model's efforts as tau columns (youbot-3r has torque limits: a plan must carry them)
+    unless ``tau`` is given (None: no effort columns)."""
     robot = get_robot("youbot-3r")
     t = np.arange(round(T / dt) + 1) * dt
     q = np.tile(Q0, (len(t), 1))
@@ -40,7 +44,17 @@ def drive(v: float = 0.2, T: float = 2.0, dt: float = 0.01, lateral: bool = Fals
     fields.update(columns)
     if "ee" not in fields:
         fields["ee"] = np.array([robot.ee_position(x) for x in fields["q"]])
+    if "tau" not in fields:
+        fields["tau"] = model_efforts(fields["q"], fields["dq"], fields["ddq"])
+    if fields["tau"] is not None:
+        fields.setdefault("actuators", robot.actuators)
     return Trajectory(robot.coordinates, **fields)
+
+
+def model_efforts(q: Any, dq: Any, ddq: Any) -> Any:
+    """youbot-3r's tau = (N^T B)^-1 N^T (M ddq + c) at every sample, (N, 5)."""
+    robot = get_robot("youbot-3r")
+    return np.array([robot.actuator_efforts(*x) for x in zip(q, dq, ddq, strict=True)])
 
 
 def problem(goal: dict[str, Any] | None = None, obstacles: list[Any] | None = None,
@@ -109,38 +123,54 @@ def test_joint_limit_violation_is_the_excess() -> None:
     assert any(line.startswith("joint limits:") and "q2" in line for line in report.failures())
 
 
-def test_torque_violation_names_the_actuator() -> None:
-    robot = get_robot("youbot-3r")
+def test_tau_columns_must_equal_the_model_efforts() -> None:
+    """A tau column off the model (wheel1 at t = 0.17 s) fails, naming the actuator;
+    the torque limits are judged on the model, so that column hides or adds nothing there."""
     tr = drive()
-    tau = np.zeros((len(tr.t), 5))
-    tau[:, 3] = -5.0  # inside [-10, 0]
-    tau[17, 0] = 1.8  # wheel1 limit 1.5
-    bad = Trajectory(tr.coordinates, tr.t, tr.q, tr.dq, tr.ddq, tr.ee, robot.actuators, tau)
-    report = check(bad, problem())
-    assert report.max_torque_violation == pytest.approx(0.3, rel=1e-12)
-    assert any("torque limits" in line and "wheel1" in line for line in report.failures())
-    within = check(bad, problem(limits={"torque": "unlimited"}))
-    assert within.max_torque_violation == 0.0 and within.ok
+    tau = np.array(tr.tau)
+    tau[17, 0] = 1.8  # over the wheel1 limit 1.5 if it were believed
+    report = check(drive(tau=tau), problem())
+    assert report.tau_model_deviation == pytest.approx(1.8 - tr.tau[17, 0], rel=1e-12)
+    assert report.max_torque_violation == 0.0  # the model's wheel efforts are 0 here
+    assert any(line.startswith("tau vs model") and "wheel1 at t = 0.17 s" in line
+               for line in report.failures())
+    nearly = np.array(tr.tau)
+    nearly[17, 0] += 0.5 * TAU_MODEL_TOL
+    assert check(drive(tau=nearly), problem()).ok
 
 
-def test_without_tau_columns_model_efforts_are_checked() -> None:
-    """No tau columns: efforts come from the dynamics, tau = (N^T B)^-1 N^T (M ddq + c)."""
+def test_torque_limits_are_judged_on_model_efforts() -> None:
+    """tau = (N^T B)^-1 N^T (M ddq + c) from q, dq, ddq; tau columns clipped into the limits
+    do not hide an excess (they fail tau vs model besides)."""
     tr = drive()
-    robot = get_robot("youbot-3r")
-    reference = np.array([robot.actuator_efforts(q, dq, ddq)
-                          for q, dq, ddq in zip(tr.q, tr.dq, tr.ddq, strict=True)])
+    reference = model_efforts(tr.q, tr.dq, tr.ddq)
     # docs/conventions.md: gravity torques at this arm pose are 0, 0, 0, -8.98, -4.10 N m
     np.testing.assert_allclose(reference[0], [0, 0, 0, -8.98, -4.10], atol=0.01)
     report = check(tr, problem())  # default limits [-10, 0] and [-5, 0] hold
     assert report.torque_source == "model" and report.max_torque_violation == 0.0
-    assert report.tau_model_deviation is None
+    assert report.tau_model_deviation is not None and report.tau_model_deviation < 1e-12
     # demanding q2 <= -9.5 N m: gravity needs about -8.98, so the excess is about 0.52
-    report = check(tr, problem(limits={"torque": {"max": [1.5, 1.5, 1.0, -9.5, 0.0]}}))
+    strict = problem(limits={"torque": {"max": [1.5, 1.5, 1.0, -9.5, 0.0]}})
     excess = np.max(reference[:, 3] - (-9.5))
     assert excess == pytest.approx(0.52, abs=0.01)
-    assert report.max_torque_violation == pytest.approx(excess, rel=1e-9)
-    assert any("torque limits" in line and "q2" in line and "model efforts" in line
-               for line in report.failures())
+    for tau in (tr.tau, np.minimum(tr.tau, [1.5, 1.5, 1.0, -9.5, 0.0])):
+        report = check(drive(tau=tau), strict)
+        assert report.max_torque_violation == pytest.approx(excess, rel=1e-9)
+        assert any("torque limits" in line and "q2" in line and "model efforts" in line
+                   for line in report.failures())
+    assert any(line.startswith("tau vs model") for line in report.failures())
+
+
+def test_effort_columns_are_required_under_torque_limits() -> None:
+    """Without tau columns a robot with torque limits fails (the columns are part of the
+    plan); without limits (and a method that writes none) they are optional."""
+    bare = drive(tau=None)
+    report = check(bare, problem())
+    assert report.consistency.required == ("tau.*",)
+    assert any(line.startswith("columns: effort columns missing (the robot has torque limits)")
+               and "tau.wheel1" in line for line in report.failures())
+    free = check(bare, problem(limits={"torque": "unlimited"}))
+    assert free.consistency.required == () and free.ok, free.failures()
 
 
 def test_dq_inconsistent_with_q_fails_and_smooth_motion_passes() -> None:

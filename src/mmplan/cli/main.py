@@ -15,13 +15,22 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import click
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 import mmplan
 from mmplan.cli.output import ProgressBar as _Bar
 from mmplan.cli.output import StepStatus as _Steps
-from mmplan.cli.output import err, out, print_check, print_export, print_plan, rate_limits_text
+from mmplan.cli.output import (
+    err,
+    out,
+    print_check,
+    print_export,
+    print_plan,
+    rate_limits_text,
+    unavailable_text,
+)
 from mmplan.errors import MmplanError
 
 ISSUES_HINT = "this is a bug in mmplan; please report it with the command you ran"
@@ -148,13 +157,19 @@ def main() -> None:
 @main.command()
 def robots() -> None:
     """List the built-in robots (name, n coordinates, h constraints, coordinates) and their
-    velocity and acceleration limits (sources: docs/conventions.md, Limits)."""
+    velocity and acceleration limits (sources: docs/conventions.md, Limits). Robots loaded from
+    example-robot-data (tiago, ur5-omni) show "not installed" and the pip command without it."""
     with _user_errors():
         table = Table("robot", "n", "h", "coordinates", "description")
         rates = Table("robot", "velocity limits (m/s, rad/s)", "acceleration limits (/s^2)",
                       caption="sources of the numbers: docs/conventions.md, Limits")
         for name in mmplan.robot_names():
-            r = mmplan.get_robot(name)
+            try:
+                r = mmplan.get_robot(name)
+            except mmplan.InputError as exc:  # a real robot whose files are not installed
+                table.add_row(name, "-", "-", "-", escape(unavailable_text(exc)))
+                rates.add_row(name, "-", "-")
+                continue
             table.add_row(name, str(r.n), str(r.h), " ".join(r.coordinates), r.description)
             rates.add_row(name, *rate_limits_text(r.limits.rates))
         out.print(table)
@@ -336,10 +351,10 @@ def export_cmd(plan_dir: Path, rate: float, out_dir: Path | None, bag: Path | No
     """Export the plan in PLAN_DIR at a fixed control rate: a plan folder and/or a ROS 2 bag.
 
     The plan is resampled every 1/rate s (the last step ends at the plan's final time): q,
-    dq, ddq from one interpolant through the samples (a quartic per step matching q, dq,
-    ddq at its start and q, dq at its end), dq projected onto the wheels' Pfaffian
-    constraints A(q) dq = 0, efforts (tau) and u interpolated linearly, ee recomputed by
-    forward kinematics.
+    dq, ddq from the plan's own meaning between its samples, the cubic Hermite through q
+    and dq (ddq its derivative; the curve the planners hold their limits on), dq projected
+    onto the wheels' Pfaffian constraints A(q) dq = 0, efforts (tau) and u interpolated
+    linearly, ee recomputed by forward kinematics.
 
     --out writes a plan folder checked like `mmplan plan` does (summary.json recomputed;
     `mmplan check OUT` re-verifies it). --ros2 writes a rosbag2 (sqlite3, ROS 2 Humble/Jazzy

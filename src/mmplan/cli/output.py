@@ -106,11 +106,23 @@ def print_check(report: mmplan.CheckReport, trajectory_end_s: float | None = Non
             when given (the report does not hold it).
     """
     from mmplan.verify.check import DQ_REL_TOL, EE_TOL, LIMIT_TOL, PFAFFIAN_TOL, TORQUE_TOL
+    from mmplan.verify.consistency import DDQ_ABS_TOL, DDQ_REL_TOL, START_TOL, TAU_MODEL_TOL
 
     rates = getattr(report, "rates", None)
     timed = bool(getattr(rates, "timed", True))
+    cons = report.consistency
     completed = "completed" if report.task_completed else "not completed"
-    _row("status (claimed)", _fmt(report.status), f"must agree: the task is {completed}")
+    _row("status (claimed)", _fmt(report.status),
+         f"must be a status name and must agree: the task is {completed}")
+    start = ("-" if cons.start_deviation is None
+             else f"{cons.start_deviation:.3g} ({cons.start_where})" if cons.start_deviation
+             else "0")
+    _row("start vs scenario", f"{start}, t0 = {_when(cons.start_time, timed)}",
+         f"must be <= {START_TOL:g} (rad or m), t0 = 0" if cons.start_deviation is not None
+         else f"segment task: the planner chooses its start; t0 must be 0 (+-{START_TOL:g})")
+    required = ", ".join(cons.required) or "none"
+    _row("effort columns", "MISSING or misnamed" if cons.columns else "complete",
+         f"required: {required} (tau.* with torque limits or by the method)")
     _row("samples", str(report.samples), "values must be finite: "
          + ("yes" if report.finite else "NO"))
     _row("reach time T(tol)", _when(report.duration_s, timed),
@@ -127,15 +139,19 @@ def print_check(report: mmplan.CheckReport, trajectory_end_s: float | None = Non
     source = f", {report.torque_source} efforts" if report.torque_source else ""
     _row("torque violation", _fmt(report.max_torque_violation),
          f"must be <= {TORQUE_TOL:g} (N m or N{source})")
-    _row("tau vs model", _fmt(report.tau_model_deviation),
-         "info (friction models may differ)")
+    _row("tau vs model", _fmt(cons.tau_model_deviation),
+         f"must be <= {TAU_MODEL_TOL:g} (N m or N)" if cons.tau_model_deviation is not None
+         else "no tau columns")
     _row("pfaffian residual", _fmt(report.max_pfaffian_residual, " m/s"),
          f"must be <= {PFAFFIAN_TOL:g} m/s")
     dq_limit = DQ_REL_TOL * max(report.dq_scale, 1e-3)
     _row("dq residual", _fmt(report.dq_residual, " /s"),
          f"must be <= {dq_limit:.3g} /s ({DQ_REL_TOL:g} x max |dq| {report.dq_scale:.3g})")
-    _row("ddq residual", _fmt(report.ddq_residual, " /s"),
-         f"info, no threshold (max |ddq| {report.ddq_scale:.3g}; steps in ddq are allowed)")
+    _row("ddq vs interpolant", _fmt(cons.ddq_excess),
+         f"must be <= {cons.ddq_allowed:.3g} there ({DDQ_REL_TOL:g} x the coordinate's peak "
+         f"|ddq| + {DDQ_ABS_TOL:g}; outside the adjacent steps' range)"
+         if math.isfinite(cons.ddq_allowed)
+         else "one sample: nothing to compare")
     _row("ee vs FK", _fmt(report.ee_deviation_m, " m"), f"must be <= {EE_TOL:g} m")
     _row("manipulability", f"start {_fmt(report.manipulability_start)}, end "
          f"{_fmt(report.manipulability_end)}, min {_fmt(report.manipulability_min)}", "info")
@@ -187,6 +203,16 @@ def rate_limits_text(rates: RateLimits) -> tuple[str, str]:
     return (brief(rates.velocity, rates.platform_speed, rates.platform_yaw_rate, "/s"),
             brief(rates.acceleration, rates.platform_acceleration,
                   rates.platform_yaw_acceleration, "/s^2"))
+
+
+def unavailable_text(exc: mmplan.InputError) -> str:
+    """``mmplan robots``: why a built-in robot cannot be built here (its files or Pinocchio
+    are not installed), with the command that installs them."""
+    from mmplan.robot.robot_data import INSTALL_HINT
+
+    if INSTALL_HINT in exc.problem:
+        return f"not installed ({INSTALL_HINT})"
+    return f"not available: {exc.problem}"
 
 
 class StepStatus:

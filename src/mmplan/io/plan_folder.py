@@ -9,7 +9,8 @@ A plan directory holds
   (:func:`mmplan.verify.check.check`), plus ``check_passed`` and ``check_failures`` (the checker's
   verdict, one line per failed check), ``message``, ``scenario`` and ``planner_info``;
   non-finite numbers are written as null;
-* ``scenario.yaml``: the resolved scenario (every default filled in);
+* ``scenario.yaml``: the resolved scenario (every default filled in; for a problem built in
+  Python, the problem itself: :func:`~mmplan.scenario.from_problem.scenario_from_problem`);
 * ``history.csv`` (when the planner recorded per-iteration series), ``artifacts.npz`` (when it
   produced arrays for reports), ``trajectory.npz`` (with ``fmt="npz"``, besides the CSV).
 
@@ -48,8 +49,8 @@ FORMATS = ("csv", "npz")
 MAX_SUMMARY_BYTES = 10_000_000
 
 
-def write_plan(out_dir: str | Path, result: PlanResult, problem: Problem, scenario: Scenario,
-               fmt: str = "csv") -> Path:
+def write_plan(out_dir: str | Path, result: PlanResult, problem: Problem,
+               scenario: Scenario | None = None, fmt: str = "csv") -> Path:
     """Write a plan directory atomically; returns its path.
 
     Args:
@@ -57,17 +58,26 @@ def write_plan(out_dir: str | Path, result: PlanResult, problem: Problem, scenar
             the new one is complete (permissions 0777 & ~umask, like ``mkdir``).
         result: The planner's result.
         problem: The problem it solved (for the checker).
-        scenario: The scenario (written resolved as scenario.yaml).
+        scenario: The scenario (written resolved as scenario.yaml). None for a problem built
+            in Python: scenario.yaml then records the problem itself (robot by its built-in
+            name or its URDF load arguments, limits, start, goal, obstacles, settings;
+            :func:`~mmplan.scenario.from_problem.scenario_from_problem`), named after
+            ``out_dir``, so that ``mmplan check`` and ``mmplan report`` can rebuild it.
         fmt: ``"csv"`` (trajectory.csv only) or ``"npz"`` (trajectory.npz too).
 
     Raises:
         InputError: bad ``fmt``; ``out_dir`` is an existing file, a non-empty directory that
             is not a plan directory (:func:`is_plan_dir`), the root or the working
-            directory; or it cannot be created or written.
+            directory; or it cannot be created or written; without ``scenario``, a robot or
+            task that a scenario cannot record.
     """
     if fmt not in FORMATS:
         raise InputError("--format", f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     out = check_out_dir(out_dir)
+    if scenario is None:
+        from mmplan.scenario.from_problem import scenario_from_problem
+
+        scenario = scenario_from_problem(problem, name=out.name)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         remove_stale(out.parent)  # left by runs killed mid-write

@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.report.plan_data import PlanData
-from mmplan.robot import Limits, Robot, get_robot
+from mmplan.robot import Limits, Robot
+from mmplan.scenario.robot_entry import robot_of_entry
 from mmplan.task import (
     DrawSegment,
     LinePath,
@@ -197,7 +198,7 @@ def build_context(plan: PlanData, max_samples: int = 1000) -> ReportContext:
         InputError: unknown robot, coordinates that do not match it, or a bad obstacle.
     """
     scenario = plan.scenario
-    base = get_robot(str(scenario["robot"]))
+    base = robot_of_entry(scenario["robot"], plan.directory)  # a name or a URDF robot
     if tuple(plan.coordinates) != tuple(base.coordinates):
         raise InputError(
             "trajectory.csv:q.*",

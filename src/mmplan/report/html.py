@@ -52,8 +52,7 @@ REFERENCES = (
 )
 
 VIEWER_LEGEND = (
-    "Robot: platform (grey box), wheels, arm links (orange) with joint axes (dark), tool (red "
-    "dot). Red tube: the end effector's path; grey tube: the platform's path on the ground; "
+    "{robot} Red tube: the end effector's path; grey tube: the platform's path on the ground; "
     "green: the goal (or the reference path). Obstacles in their true shapes, numbered as in "
     "the figures. Ground grid: {step:g} m squares, labelled in metres; axes at the origin: "
     "x red, y green, z blue (0.5 m). Drag to orbit, right-drag to pan, wheel to zoom; "
@@ -159,6 +158,8 @@ def viewer_block(scene: Scene3D) -> str:
     scene_json = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     licence = _package_text("meshcat", "viewer/dist/main.min.js.LICENSE.txt").replace("*/", "* /")
     bundle = _package_text("meshcat", "viewer/dist/main.min.js")
+    legend = VIEWER_LEGEND.format(step=scene.meta["grid_step"],
+                                  robot=scene.meta.get("robot_legend", ""))
     options = "".join(f'<option value="{v}"{" selected" if v == "1" else ""}>{v}x</option>'
                       for v in ("0.25", "0.5", "1", "2", "4"))
     return (
@@ -170,7 +171,7 @@ def viewer_block(scene: Scene3D) -> str:
         f'<label>speed <select class="speed">{options}</select></label>'
         '<label><input class="follow" type="checkbox" checked> follow the robot</label>'
         '<label><input class="points" type="checkbox"> collision model</label></div>'
-        f'<p class="legend">{html.escape(VIEWER_LEGEND.format(step=scene.meta["grid_step"]))}</p>'
+        f'<p class="legend">{html.escape(legend)}</p>'
         '<div class="message"></div>'
         f'<script id="mmplan-scene" type="application/json">{scene_json}</script>'
         "<script>/*! 3D viewer: meshcat (MIT, github.com/meshcat-dev/meshcat), bundled with "

@@ -45,6 +45,8 @@ from mmplan.arrays import Array
 geometry = g
 
 FLOAT32 = 0x17  # msgpack extension code of a Float32Array (meshcat / msgpack-lite)
+UINT16 = 0x14  # ... of a Uint16Array
+UINT32 = 0x16  # ... of a Uint32Array
 
 
 def path(*parts: str) -> Any:
@@ -93,6 +95,33 @@ class Commands:
         for where, tracks in clips.items():
             animation.clips[where] = AnimationClip(tracks={t.name: t for t in tracks}, fps=1)
         self._send(SetAnimation(animation, play=False, repetitions=1))
+
+
+class IndexedMesh(g.Geometry):
+    """Indexed triangles as a three.js BufferGeometry: positions as float32, indices as
+    uint16 where there are fewer than 65,536 vertices (else uint32). No normals: the viewer
+    averages the face normals at each vertex (meshcat calls ``computeVertexNormals``)."""
+
+    def __init__(self, vertices: Array, faces: np.ndarray) -> None:
+        super().__init__()
+        self.vertices = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1, 3)
+        index_type = np.uint16 if len(self.vertices) < 65536 else np.uint32
+        self.faces = np.ascontiguousarray(faces, dtype=index_type).reshape(-1, 3)
+
+    def lower(self, object_data: Any) -> dict[str, Any]:
+        index_type, code = (("Uint16Array", UINT16) if self.faces.dtype == np.uint16
+                            else ("Uint32Array", UINT32))
+        return {
+            "uuid": self.uuid,
+            "type": "BufferGeometry",
+            "data": {
+                "attributes": {"position": {
+                    "itemSize": 3, "type": "Float32Array", "normalized": False,
+                    "array": umsgpack.Ext(FLOAT32, self.vertices.tobytes())}},
+                "index": {"itemSize": 1, "type": index_type, "normalized": False,
+                          "array": umsgpack.Ext(code, self.faces.tobytes())},
+            },
+        }
 
 
 class ArrayTrack:

@@ -3,7 +3,7 @@ obstacles in their true shapes, the paths, the goal and a ground grid with its s
 
 Scene tree (meshcat paths; each can be hidden from the viewer's "Open Controls" panel):
 
-* ``/robot/<body>``: one node per body with visual geometry (:func:`body_visuals`), posed in
+* ``/robot/<body>``: one node per body with visual geometry (:func:`robot_looks`), posed in
   the world by an animation track per frame (position and quaternion from the robot's forward
   kinematics); its pieces below it, posed in the body frame; ``/robot/<body>/collision``:
   the body's collision model (points of radius 0 as a point cloud, spheres translucent),
@@ -29,7 +29,14 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.report.context import ReportContext, decimation
-from mmplan.report.meshcat_commands import ArrayTrack, Commands, path, quaternions_xyzw, rgb
+from mmplan.report.meshcat_commands import (
+    ArrayTrack,
+    Commands,
+    IndexedMesh,
+    path,
+    quaternions_xyzw,
+    rgb,
+)
 from mmplan.report.meshcat_commands import geometry as g
 from mmplan.report.palette import GOAL_COLOR
 from mmplan.report.scene3d_static import (
@@ -38,7 +45,7 @@ from mmplan.report.scene3d_static import (
     draw_obstacles,
     scene_bounds,
 )
-from mmplan.report.visuals import COLLISION_COLOR, Visual, VisualKind, body_visuals, pose_from
+from mmplan.report.visuals import COLLISION_COLOR, Visual, VisualKind, pose_from, robot_looks
 from mmplan.robot import Robot
 from mmplan.robot.bases import PLATFORM
 
@@ -58,7 +65,8 @@ class Scene3D:
             seconds per unit of t: 1, or more for a path parameter), ``timed`` (t is time),
             ``frames``, ``bodies`` (scene paths),
             ``labels`` ([x, y, z, text, kind]), ``grid_step`` [m], ``follow`` (path of the body
-            the camera can follow), ``camera`` (``target`` and ``offset`` [m]).
+            the camera can follow), ``camera`` (``target`` and ``offset`` [m]),
+            ``robot_legend`` (how the robot is drawn, for the legend).
     """
 
     commands: list[bytes]
@@ -87,7 +95,7 @@ def _geometry(visual: Visual) -> tuple[Any, Array]:
         return g.Cylinder(visual.size[1], visual.size[0]), pose @ y_to_z  # three.js: along y
     scale = np.diag([*visual.size[:3], 1.0]) if len(visual.size) >= 3 else np.eye(4)
     if visual.vertices is not None and visual.faces is not None:
-        return g.TriangularMeshGeometry(visual.vertices, visual.faces), pose @ scale
+        return IndexedMesh(visual.vertices, visual.faces), pose @ scale
     return FileMesh(visual.mesh_data or "", visual.mesh_format), pose @ scale
 
 
@@ -199,7 +207,8 @@ def scene_commands(ctx: ReportContext, max_frames: int = 1000) -> Scene3D:
         raise ValueError(f"max_frames must be in [2, {MAX_FRAMES}], got {max_frames}")
     robot, plan = ctx.robot, ctx.plan
     index = decimation(plan.samples, max_frames)
-    visuals = body_visuals(robot, prismatic_ranges(ctx))
+    looks = robot_looks(robot, prismatic_ranges(ctx))
+    visuals = looks.bodies
     with_points = {s.body for s in robot.collision}
     bodies = [b for b in robot.tree.bodies if b in visuals or b in with_points]
     T = body_transforms(robot, bodies, plan.q[index])
@@ -227,5 +236,6 @@ def scene_commands(ctx: ReportContext, max_frames: int = 1000) -> Scene3D:
         "follow": f"robot/{PLATFORM}" if PLATFORM in bodies else None,
         "camera": camera_views(ctx, lo, hi, np.vstack([T[0, :, :3, 3], ctx.plan.ee[:1]])),
         "goal_color": GOAL_COLOR,
+        "robot_legend": looks.legend,
     }
     return Scene3D(cmds.packed, meta)

@@ -18,9 +18,13 @@ Built-in robots are drawn from their model, nothing typed in per robot:
 The collision model (points and spheres) is not part of the looks: the 3D view draws it
 apart, hidden until asked for.
 
-URDF robots can later show their link meshes here: a :class:`Visual` of kind ``MESH`` carries
-either vertices and faces or a mesh file's contents and format (``stl``, ``obj``, ``dae``),
-which meshcat's viewer loads as they are.
+Robots loaded from a URDF (:class:`~mmplan.robot.urdf.UrdfRobot`) are drawn from the URDF's
+own ``<visual>`` geometry instead (:mod:`mmplan.report.urdf_visuals`): link meshes as
+triangles, boxes, cylinders and spheres, with the URDF's colours, each in the body that
+carries its link (held links in place); an arm-only URDF's platform box and wheels are drawn
+as above, and the tool point as a red dot. A :class:`Visual` of kind ``MESH`` carries either
+vertices and faces or a mesh file's contents and format (``stl``, ``obj``, ``dae``), which
+meshcat's viewer loads as they are.
 """
 
 from __future__ import annotations
@@ -153,8 +157,9 @@ def platform_box(robot: Robot) -> tuple[Array, Array]:
     return np.array([0.4, 0.3, 0.1]), np.array([0.0, 0.0, 0.1])
 
 
-def _platform_visuals(robot: Robot, out: dict[str, list[Visual]]) -> None:
-    size, center = platform_box(robot)
+def _platform_visuals(robot: Robot, out: dict[str, list[Visual]],
+                      box: tuple[Array, Array] | None = None) -> None:
+    size, center = platform_box(robot) if box is None else box
     out[PLATFORM].append(Visual("body", VisualKind.BOX, tuple(size), pose_from(center),
                                 PLATFORM_COLOR))
     clearance = float(center[2] - size[2] / 2)
@@ -237,23 +242,86 @@ def _arm_visuals(robot: Robot, ranges: Mapping[str, tuple[float, float]],
                                         pose_from(end / 2, end), LINK_COLOR))
 
 
+BUILTIN_LEGEND = ("Robot: platform (grey box), wheels, arm links (orange) with joint axes "
+                  "(dark), tool (red dot).")
+
+
+@dataclass(frozen=True)
+class Looks:
+    """How a robot is drawn.
+
+    Attributes:
+        bodies: Visual pieces per body (bodies without any are left out).
+        legend: One or two sentences for the 3D view's legend saying what is drawn.
+    """
+
+    bodies: dict[str, tuple[Visual, ...]]
+    legend: str = BUILTIN_LEGEND
+
+
 def body_visuals(robot: Robot, ranges: Mapping[str, tuple[float, float]] | None = None
                  ) -> dict[str, tuple[Visual, ...]]:
     """Visual geometry per body (bodies without any are left out); see the module docstring.
-
-    This is the hook for robots with their own visual geometry (URDF meshes): return
-    :class:`Visual` pieces of kind ``MESH`` for their bodies here.
 
     Args:
         robot: The robot.
         ranges: Range (lo, hi) [m] a prismatic coordinate takes in the plan, for the length
             of its rail (default [0, 0.5] m).
     """
+    return robot_looks(robot, ranges).bodies
+
+
+def robot_looks(robot: Robot, ranges: Mapping[str, tuple[float, float]] | None = None
+                ) -> Looks:
+    """:func:`body_visuals` with the legend saying how the robot is drawn."""
+    from mmplan.robot.urdf.robot import UrdfRobot
+
+    if isinstance(robot, UrdfRobot) and robot.source.urdf is not None:
+        looks = _urdf_looks(robot)
+        if looks is not None:
+            return looks
     out: dict[str, list[Visual]] = {name: [] for name in robot.tree.bodies}
     _platform_visuals(robot, out)
+    _wheel_bodies(robot, out)
+    _arm_visuals(robot, ranges or {}, out)
+    return Looks({name: tuple(v) for name, v in out.items() if v})
+
+
+def _wheel_bodies(robot: Robot, out: dict[str, list[Visual]]) -> None:
     for joint in robot.tree.joints:
         disc = disc_axis(robot.tree.bodies[joint.child].inertial)
-        if _is_wheel(robot, joint) and disc is not None:
+        if _is_wheel(robot, joint) and disc is not None and not out[joint.child]:
             out[joint.child].extend(_wheel("wheel", np.zeros(3), np.eye(3)[disc[0]], disc[1]))
-    _arm_visuals(robot, ranges or {}, out)
-    return {name: tuple(v) for name, v in out.items() if v}
+
+
+def _urdf_looks(robot: Robot) -> Looks | None:
+    """The URDF's visuals, plus what the URDF lacks: an arm-only URDF's platform box (and its
+    wheels) and the tool point; None when the URDF has no visual geometry."""
+    from mmplan.report.urdf_visuals import urdf_body_visuals
+    from mmplan.robot.urdf.visuals import added_platform_body
+
+    urdf = urdf_body_visuals(robot)
+    if not urdf.bodies:
+        return None
+    out: dict[str, list[Visual]] = {name: [] for name in robot.tree.bodies}
+    for body, pieces in urdf.bodies.items():
+        out[body].extend(pieces)
+    box = added_platform_body(robot)  # type: ignore[arg-type]
+    size = inertia_box(box) if box is not None else None
+    if box is not None and size is not None:
+        _platform_visuals(robot, out, (size, np.asarray(box.com, dtype=float)))
+    _wheel_bodies(robot, out)
+    tip = np.asarray(robot.end_effector.offset, dtype=float)
+    out[robot.end_effector.body].append(Visual("tool", VisualKind.SPHERE, (0.012,),
+                                               pose_from(tip), TOOL_COLOR))
+    text = f"Robot: the visual geometry of its URDF ({urdf.triangles:,} triangles"
+    if urdf.cell:
+        text += f", meshes decimated by vertex clustering at {urdf.cell * 1000:g} mm"
+    text += ")"
+    if size is not None:
+        text += " on its platform box (grey)"
+    text += ", tool point (red dot)."
+    if urdf.skipped:
+        text += f" Not drawn (unreadable mesh files): {'; '.join(urdf.skipped[:5])}"
+        text += f" and {len(urdf.skipped) - 5} more." if len(urdf.skipped) > 5 else "."
+    return Looks({name: tuple(v) for name, v in out.items() if v}, text)

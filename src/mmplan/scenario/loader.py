@@ -24,10 +24,12 @@ from mmplan.arrays import Array
 from mmplan.errors import InputError, MmplanError
 from mmplan.planners import methods, settings_model
 from mmplan.problem import PlannerSettings, Problem
-from mmplan.robot import Limits, Robot, get_robot
+from mmplan.robot import Limits, Robot
 from mmplan.scenario.parse import ScenarioError, parse_yaml, read_text, validation_error
 from mmplan.scenario.rates import rates_dict, resolve_rates
+from mmplan.scenario.robot_entry import build_robot, record_robot
 from mmplan.scenario.schema import GoalSpec, LimitsSpec, ScenarioSpec
+from mmplan.scenario.start import check_start_pose, resolve_start
 from mmplan.scene import Obstacle, Scene, obstacle_from_dict
 from mmplan.task import DrawSegment, LinePath, PolynomialPath, ReachPoint, Task, WaypointPath
 
@@ -65,7 +67,7 @@ def load_scenario(name_or_path: str | Path, *, require_planner: bool = True,
         path = builtins[source]
     text = read_text(path, source)  # at most MAX_FILE_BYTES, UTF-8
     return Scenario.from_dict(parse_yaml(text, source), source, require_planner=require_planner,
-                              check_start=check_start)
+                              check_start=check_start, base_dir=path.resolve().parent)
 
 
 def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
@@ -80,6 +82,9 @@ def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
     planner = data.get("planner")
     method = planner.get("method") if isinstance(planner, dict) else None
     robot = data.get("robot")
+    if isinstance(robot, dict):  # a URDF robot: its name, else its file's name
+        urdf = robot.get("urdf")
+        robot = robot.get("name") or (Path(urdf).name if isinstance(urdf, str) else None)
     if not isinstance(robot, str) or not isinstance(method, str):
         raise ScenarioError(source, "", "needs robot and planner.method")
     return robot, method
@@ -96,18 +101,31 @@ def _is_file(path: Path) -> bool:
 class Scenario:
     """A validated scenario: robot (with limits), scene, task, start and planner settings.
 
-    Build one with :func:`load_scenario` or :meth:`Scenario.from_dict`; everything is
-    checked on construction, so :meth:`build` cannot fail.
+    Build one with :func:`load_scenario`, :meth:`Scenario.from_dict` or
+    :func:`~mmplan.scenario.from_problem.scenario_from_problem`; everything is checked on
+    construction, so :meth:`build` cannot fail.
+
+    Args:
+        spec: The validated scenario.
+        source: File or built-in name (for messages).
+        require_planner: See :func:`load_scenario`.
+        check_start: See :func:`load_scenario`.
+        base_dir: Folder that relative paths in ``robot`` are relative to (the scenario
+            file's folder; default: the working directory).
+        robot: The robot ``spec.robot`` names, already built (not built again).
     """
 
     def __init__(self, spec: ScenarioSpec, source: str = "<scenario>", *,
-                 require_planner: bool = True, check_start: bool = True) -> None:
+                 require_planner: bool = True, check_start: bool = True,
+                 base_dir: Path | None = None, robot: Robot | None = None) -> None:
         self.spec = spec
         self.source = source
         try:
-            base = get_robot(spec.robot)
-            self.start = self._start(spec.start, base)
+            base = robot if robot is not None else build_robot(spec.robot, base_dir or Path.cwd())
+            #: The robot as built, before the scenario's limits (recorded by resolved_dict).
+            self.base_robot = base
             self.robot: Robot = base.with_limits(_limits(spec.limits, base))
+            self.start = resolve_start(spec.start, self.robot)
             self.settings: PlannerSettings = _settings(spec.planner, source, require_planner)
             #: False when the method is not installed and its settings were not validated.
             self.planner_validated = str(spec.planner["method"]) in methods()
@@ -115,7 +133,8 @@ class Scenario:
             self.scene = Scene(tuple(_obstacle(o.model_dump(exclude_none=True), i)
                                      for i, o in enumerate(spec.obstacles)))
             if check_start:
-                _check_start(self.robot, self.scene, self.start)
+                check_start_pose(self.robot, self.scene, self.start,
+                                 by_name=isinstance(spec.start, dict))
         except ScenarioError:
             raise
         except InputError as exc:
@@ -123,13 +142,16 @@ class Scenario:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "<scenario>", *,
-                  require_planner: bool = True, check_start: bool = True) -> Scenario:
-        """Validate a scenario given as a mapping (the parsed YAML); see :func:`load_scenario`."""
+                  require_planner: bool = True, check_start: bool = True,
+                  base_dir: Path | None = None, robot: Robot | None = None) -> Scenario:
+        """Validate a scenario given as a mapping (the parsed YAML); see :func:`load_scenario`
+        and the constructor."""
         try:
             spec = ScenarioSpec.model_validate(dict(data))
         except ValidationError as exc:
             raise validation_error(exc, dict(data), source) from None
-        return cls(spec, source, require_planner=require_planner, check_start=check_start)
+        return cls(spec, source, require_planner=require_planner, check_start=check_start,
+                   base_dir=base_dir, robot=robot)
 
     @property
     def name(self) -> str:
@@ -147,19 +169,14 @@ class Scenario:
 
     def resolved_dict(self) -> dict[str, Any]:
         """The scenario with every default filled in (written as scenario.yaml)."""
-        lim = self.robot.limits
-        torque: Any = "unlimited"
-        if lim.has_torque_limits:
-            torque = {"min": _floats(lim.torque_min), "max": _floats(lim.torque_max)}
         return {
             "name": self.spec.name,
-            "robot": self.spec.robot,
+            "robot": record_robot(self.base_robot, self.spec.robot),
             "start": _floats(self.start),
             "goal": self.spec.goal.model_dump(mode="python", exclude_none=True),
             "obstacles": [_shape_first(o.model_dump(mode="python", exclude_none=True))
                           for o in self.spec.obstacles],
-            "limits": {"joints": {"min": _floats(lim.joint_min), "max": _floats(lim.joint_max)},
-                       "torque": torque, **rates_dict(lim.rates, self.robot)},
+            "limits": limits_dict(self.robot),
             "planner": (self.settings.model_dump(mode="json") if self.planner_validated
                         else dict(self.spec.planner)),
         }
@@ -168,13 +185,6 @@ class Scenario:
         """:meth:`resolved_dict` as YAML text."""
         text = yaml.safe_dump(self.resolved_dict(), sort_keys=False, default_flow_style=None)
         return f"# Resolved scenario: every default filled in (written by mmplan).\n{text}"
-
-    @staticmethod
-    def _start(values: Sequence[float], robot: Robot) -> Array:
-        if len(values) != robot.n:
-            names = ", ".join(robot.coordinates[:3]) + (", ..." if robot.n > 3 else "")
-            raise InputError("start", f"expected {robot.n} values ({names}), got {len(values)}")
-        return np.asarray(values, dtype=float)
 
     def __repr__(self) -> str:
         return f"Scenario({self.name!r}, robot={self.robot.name!r}, method={self.method!r})"
@@ -188,6 +198,17 @@ def _shape_first(data: dict[str, Any]) -> dict[str, Any]:
 
 def _floats(values: Array) -> list[float]:
     return [float(v) for v in values]
+
+
+def limits_dict(robot: Robot) -> dict[str, Any]:
+    """The robot's effective limits in the scenario ``limits:`` form, every value given (so
+    that it reloads to the same limits whatever the robot's defaults)."""
+    lim = robot.limits
+    torque: Any = "unlimited"
+    if lim.has_torque_limits:
+        torque = {"min": _floats(lim.torque_min), "max": _floats(lim.torque_max)}
+    return {"joints": {"min": _floats(lim.joint_min), "max": _floats(lim.joint_max)},
+            "torque": torque, **rates_dict(lim.rates, robot)}
 
 
 def _limits(spec: LimitsSpec | None, robot: Robot) -> Limits:
@@ -261,26 +282,6 @@ def _obstacle(data: dict[str, Any], index: int) -> Obstacle:
         raise InputError(f"obstacles[{index}].{exc.field}".rstrip("."), exc.problem) from None
     except MmplanError as exc:
         raise InputError(f"obstacles[{index}]", str(exc)) from None
-
-
-def _check_start(robot: Robot, scene: Scene, start: Array) -> None:
-    """Start inside the joint limits and collision-free (original obstacles, exact distance)."""
-    lim = robot.limits
-    for j, i in enumerate(robot.arm_indices):
-        lo, hi = lim.joint_min[j], lim.joint_max[j]
-        if not lo <= start[i] <= hi:
-            raise InputError(f"start[{i}]", f"{robot.coordinates[i]} = {start[i]:g} outside the "
-                             f"joint limits [{lo:g}, {hi:g}]")
-    if not scene.obstacles or not robot.collision:
-        return
-    points = robot.collision_points(start)  # (P, 3)
-    gap = scene.distances(points) - robot.collision_radii[:, None]  # (P, n_obs)
-    p, o = np.unravel_index(int(np.argmin(gap)), gap.shape)
-    if gap[p, o] < 0:
-        x, y, z = points[p]
-        raise InputError("start", f"in collision: robot point {p} (on {robot.collision[p].body}, "
-                         f"at ({x:.3f}, {y:.3f}, {z:.3f})) is {-gap[p, o]:.6g} m inside "
-                         f"obstacles[{o}]")
 
 
 __all__ = ["Scenario", "ScenarioError", "builtin_scenarios", "load_scenario", "scenario_header"]

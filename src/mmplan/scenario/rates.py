@@ -1,6 +1,6 @@
 """Velocity and acceleration limits of a scenario: the robot's defaults with the file's overrides.
 
-``limits.velocity`` and ``limits.acceleration`` (schema :class:`~.schema.RateLimitsSpec`)
+``limits.velocity`` and ``limits.acceleration`` (schema :class:`~.limits_schema.RateLimitsSpec`)
 override the robot's :class:`~mmplan.robot.RateLimits` key by key; ``null`` turns a limit off
 (``velocity: null`` all velocity limits). Coordinate names are checked here, against the robot:
 bounds by name are for the coordinates that are not the platform pose (arm joints, wheel
@@ -19,7 +19,7 @@ from typing import Any
 
 from mmplan.errors import InputError
 from mmplan.robot import RateLimits, Robot
-from mmplan.scenario.schema import LimitsSpec, RateLimitsSpec
+from mmplan.scenario.limits_schema import LimitsSpec, RateLimitsSpec
 
 #: Source recorded for a limit that the scenario file sets.
 SCENARIO_SOURCE = "scenario file"

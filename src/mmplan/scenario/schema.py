@@ -6,10 +6,12 @@ positive sizes, min <= max inside one range, unknown keys (``extra="forbid"``).
 Checks that need the robot or the planner (lengths of ``start`` and ``limits``, joint limits
 at the start, collisions, planner settings) live in :mod:`mmplan.scenario.loader`.
 
-Top-level keys: ``name``, ``robot`` (a built-in robot), ``start`` (q0 in the robot's
-coordinate order, ``mmplan robots`` lists them), ``goal``, ``obstacles`` (default none),
-``limits`` (optional), ``planner`` (``method`` plus that method's settings; unknown keys are
-errors).
+Top-level keys: ``name``, ``robot`` (a built-in robot's name, or a URDF robot
+``{urdf: ..., platform: ..., end_effector: ...}``: :mod:`mmplan.scenario.robot_schema`),
+``start`` (q0: a list in the robot's coordinate order, ``mmplan robots`` lists them, or a
+mapping ``{name: value}`` whose missing coordinates take their defaults,
+:mod:`mmplan.scenario.start`), ``goal``, ``obstacles`` (default none), ``limits`` (optional),
+``planner`` (``method`` plus that method's settings; unknown keys are errors).
 
 Goal forms (exactly one of ``position``, ``path``, ``segment``; plus ``tolerance`` [m],
 default 0.001):
@@ -44,66 +46,24 @@ names are checked against the robot in :mod:`mmplan.scenario.rates`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, Field, TypeAdapter, ValidationError, model_validator
 from pydantic_core import PydanticCustomError
 
-#: Largest magnitude of any scenario number except torque limits (m, rad, s): far beyond any
-#: robot workspace, small enough that squares and sums stay exact enough in float64.
-MAX_MAGNITUDE = 1e6
-
-
-def _in_range(value: float) -> float:
-    if abs(value) > MAX_MAGNITUDE:
-        raise ValueError(f"|{value:.6g}| is out of range: magnitudes must be <= {MAX_MAGNITUDE:g}")
-    return value
-
-
-Finite = Annotated[float, Field(strict=True, allow_inf_nan=False), AfterValidator(_in_range)]
-Positive = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0),
-                     AfterValidator(_in_range)]
-NonNegative = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0),
-                        AfterValidator(_in_range)]
-
-
-def _not_nan(value: float) -> float:
-    if math.isnan(value):
-        raise ValueError("expected a number or .inf, got NaN")
-    return value
-
-
-#: A limit: finite or +-inf (``.inf`` in YAML), never NaN.
-Bound = Annotated[float, Field(strict=True), AfterValidator(_not_nan)]
-
-
-def _length(n: int, names: str) -> Callable[[list[float]], list[float]]:
-    def check(values: list[float]) -> list[float]:
-        if len(values) != n:
-            raise ValueError(f"expected {n} values {names}, got {len(values)}")
-        return values
-
-    return check
-
-
-Vec3 = Annotated[list[Finite], AfterValidator(_length(3, "(x, y, z)"))]
-PositiveVec3 = Annotated[list[Positive], AfterValidator(_length(3, "(x, y, z)"))]
-
-
-def fail(key: str, problem: str) -> PydanticCustomError:
-    """A validation error about the sub-key ``key`` of the model being validated.
-
-    The key travels in the error's context (``ctx["key"]``) so that the reported key path
-    names it (e.g. ``goal.path.times[2]``), not just the model.
-    """
-    return PydanticCustomError("scenario", problem, {"key": key})
-
-
-class Strict(BaseModel):
-    """Base of every schema model: unknown keys are errors, instances are immutable."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
+from mmplan.scenario.limits_schema import LimitsSpec
+from mmplan.scenario.parse import validation_error
+from mmplan.scenario.robot_schema import UrdfRobotSpec
+from mmplan.scenario.schema_types import (
+    Finite,
+    NonNegative,
+    Positive,
+    PositiveVec3,
+    Strict,
+    Vec3,
+    exact_length,
+    fail,
+)
 
 
 # ------------------------------------------------------------------ obstacles
@@ -120,7 +80,7 @@ class SuperellipsoidSpec(ObstacleSpec):
     shape: Literal["superellipsoid"]
     center: Vec3
     semi_axes: PositiveVec3
-    exponents: Annotated[list[Positive], AfterValidator(_length(2, "(e1, e2)"))]
+    exponents: Annotated[list[Positive], AfterValidator(exact_length(2, "(e1, e2)"))]
     yaw: Finite = 0.0
 
 
@@ -232,88 +192,65 @@ class GoalSpec(Strict):
         return self
 
 
-# ------------------------------------------------------------------ limits
-class JointRangeSpec(Strict):
-    """Arm joint limits [rad or m]; a missing side keeps the robot's default."""
-
-    min: list[Finite] | None = None
-    max: list[Finite] | None = None
-
-
-class TorqueRangeSpec(Strict):
-    """Actuator effort limits [N m or N]; ``.inf`` allowed; the string ``unlimited`` too."""
-
-    min: list[Bound] | None = None
-    max: list[Bound] | None = None
-    unlimited: bool = False
-
-    @model_validator(mode="before")
-    @classmethod
-    def _unlimited(cls, data: Any) -> Any:
-        if isinstance(data, str):
-            if data == "unlimited":
-                return {"unlimited": True}
-            raise ValueError(f"expected {{min: [...], max: [...]}} or 'unlimited', got {data!r}")
-        return data
-
-    @model_validator(mode="after")
-    def _exclusive(self) -> TorqueRangeSpec:
-        if self.unlimited and (self.min is not None or self.max is not None):
-            raise fail("unlimited", "'unlimited' excludes min and max")
-        return self
+# ------------------------------------------------------------------ scenario
+#: ``start`` as a mapping: coordinate name -> value [m or rad].
+StartMapping = dict[Annotated[str, Field(strict=True, min_length=1)], Finite]
+_START_LIST: TypeAdapter[list[float]] = TypeAdapter(list[Finite])
+_START_MAPPING: TypeAdapter[dict[str, float]] = TypeAdapter(StartMapping)
 
 
-def _positive_limit(value: float) -> float:
-    if not value > 0:
-        raise ValueError(f"must be > 0, got {value:g}; null turns the limit off")
-    return value
+def _nested(exc: ValidationError, data: Any, key: str) -> PydanticCustomError:
+    """The first error of a nested validation, re-raised with its key path below ``key``."""
+    first = validation_error(exc, data, "")
+    path = first.field
+    return fail(f"{key}{path}" if path.startswith("[") else f"{key}.{path}".rstrip("."),
+                first.problem)
 
 
-#: A rate limit: finite and > 0 (``null`` in YAML, None here, turns it off).
-RateBound = Annotated[float, Field(strict=True, allow_inf_nan=False),
-                      AfterValidator(_in_range), AfterValidator(_positive_limit)]
+class ScenarioSpec(Strict):
+    """A whole scenario file. ``planner`` is validated by the chosen method's settings model.
 
-
-class RateLimitsSpec(Strict):
-    """Velocity [m/s, rad/s] or acceleration [m/s^2, rad/s^2] limits, as absolute bounds.
-
-    A key given overrides the robot's default, ``null`` turns that limit off (which keys were
-    given, null included, is ``model_fields_set``; a coordinate given as null maps to None).
+    ``robot`` is a built-in robot's name or a URDF robot (:class:`UrdfRobotSpec`); ``start``
+    a list in the robot's coordinate order or a mapping from coordinate names to values.
     """
 
-    coordinates: dict[str, RateBound | None] | None = None  # by name: arm joints, wheels
-    platform_linear: RateBound | None = None  # |(dx, dy)| or |(ddx, ddy)|
-    platform_angular: RateBound | None = None  # |dtheta| or |ddtheta|
-
-    @model_validator(mode="before")
-    @classmethod
-    def _mapping(cls, data: Any) -> Any:
-        if not isinstance(data, dict):
-            raise ValueError("expected {coordinates: {name: bound}, platform_linear: bound, "
-                             f"platform_angular: bound}} or null, got {data!r}")
-        return data
-
-
-class LimitsSpec(Strict):
-    """Optional overrides of the robot's limits (``velocity: null``: all velocity limits off)."""
-
-    joints: JointRangeSpec | None = None
-    torque: TorqueRangeSpec | None = None
-    velocity: RateLimitsSpec | None = None
-    acceleration: RateLimitsSpec | None = None
-
-
-# ------------------------------------------------------------------ scenario
-class ScenarioSpec(Strict):
-    """A whole scenario file. ``planner`` is validated by the chosen method's settings model."""
-
     name: Annotated[str, Field(strict=True, min_length=1)]
-    robot: Annotated[str, Field(strict=True)]
-    start: list[Finite]
+    robot: Annotated[str, Field(strict=True, min_length=1)] | UrdfRobotSpec
+    start: list[Finite] | StartMapping
     goal: GoalSpec
     obstacles: list[AnyObstacle] = Field(default_factory=list)
     limits: LimitsSpec | None = None
     planner: dict[str, Any]
+
+    @model_validator(mode="before")
+    @classmethod
+    def _robot_and_start(cls, data: Any) -> Any:
+        """Validate the two keys that take two forms, so that an error names its key path
+        (a union would report both forms' errors under their type names)."""
+        if not isinstance(data, dict):
+            return data
+        data = dict(data)
+        robot = data.get("robot")
+        if isinstance(robot, dict):
+            try:
+                data["robot"] = UrdfRobotSpec.model_validate(robot)
+            except ValidationError as exc:
+                raise _nested(exc, robot, "robot") from None
+        elif robot is not None and not isinstance(robot, str | UrdfRobotSpec):
+            raise fail("robot", "expected a built-in robot's name (mmplan robots) or a URDF "
+                                f"robot {{urdf: ..., platform: ..., end_effector: ...}}, got "
+                                f"{type(robot).__name__}")
+        start = data.get("start")
+        if start is not None:
+            adapter = _START_MAPPING if isinstance(start, dict) else _START_LIST
+            if not isinstance(start, dict | list):
+                raise fail("start", "expected a list in the robot's coordinate order or a "
+                                    f"mapping {{name: value}}, got {type(start).__name__}")
+            try:
+                data["start"] = adapter.validate_python(start)
+            except ValidationError as exc:
+                raise _nested(exc, start, "start") from None
+        return data
 
     @model_validator(mode="after")
     def _method(self) -> ScenarioSpec:

@@ -247,10 +247,10 @@ class RateModel:
         trajectory between its samples); 0 on a step of non-finite length."""
         if not self.quantities or len(t) < 2:
             return np.zeros((max(len(t) - 1, 0), len(self.quantities)))
-        out = []
+        steps, out = interpolant.Steps(t, q, dq), []
         for qt in self.quantities:
-            peak = (interpolant.peak_velocity if qt.kind == "velocity"
-                    else interpolant.peak_acceleration)(t, q, dq, qt.index)  # fmt: skip
+            peak = (steps.peak_velocity if qt.kind == "velocity"
+                    else steps.peak_acceleration)(qt.index)  # fmt: skip
             with np.errstate(divide="ignore", invalid="ignore"):
                 out.append(peak / qt.limit)
         return np.column_stack(out)
@@ -259,9 +259,9 @@ class RateModel:
         self, t: Array, dq: Array, ddq: Array, q: Array | None = None
     ) -> RateViolation | None:
         """The earliest sample at which a quantity exceeds its limit (beyond :data:`REL_TOL`,
-        NaN counting as exceeding); when none and ``q`` is given, the earliest step on which the
-        interpolant (:meth:`interval_ratios`) exceeds it beyond :data:`INTERVAL_TOL`. None when every
-        limit holds."""
+        NaN counting as exceeding); when none and ``q`` is given, the earliest step on which
+        the interpolant (:meth:`interval_ratios`) exceeds it beyond :data:`INTERVAL_TOL`. None
+        when every limit holds."""
         r = self.ratios(dq, ddq)
         found = _first(r, REL_TOL)
         if found is not None:

@@ -1,4 +1,4 @@
-r"""Independent verification of a trajectory, from q (and dq, ddq, tau) alone.
+r"""Independent verification of a trajectory, from physics and the scenario alone.
 
 Nothing here trusts the planner: the end effector comes from the robot's forward kinematics,
 clearance from the exact point-to-surface distance to the ORIGINAL (not enlarged) obstacles at
@@ -9,14 +9,20 @@ Pass criteria (:meth:`CheckReport.failures` names each one that fails):
 
 * finite values; ee columns equal FK(q) within ``EE_TOL``;
 * clearance >= 0 (robot collision spheres vs original obstacles);
-* joint limits (arm coordinates) within ``LIMIT_TOL``, actuator efforts within ``TORQUE_TOL``;
+* self-clearance >= 0 for robots with self-collision pairs (URDF robots: the robot's own
+  :class:`~mmplan.robot.self_collision.SelfCollision` pairs and their sphere distances);
+* joint limits (arm coordinates) within ``LIMIT_TOL``; actuator efforts within ``TORQUE_TOL``,
+  the efforts recomputed from the model (q, dq, ddq), never the file's ``tau`` columns;
 * Pfaffian residual :math:`\max_t \|A(q) \dot q\|_2 \le` ``PFAFFIAN_TOL`` (1e-6 m/s);
 * dq consistent with q: per step, the trapezoid increment of dq matches the increment of q,
   :math:`r_i = \|(q_{i+1} - q_i)/\Delta t_i - (\dot q_i + \dot q_{i+1})/2\|_\infty`
   (the residual of q against the cumulative trapezoid integral of dq, normalized by the step),
   with :math:`\max_i r_i \le` ``DQ_REL_TOL`` :math:`\cdot \max(\max|\dot q|, 10^{-3})`;
-  ddq vs dq likewise (reported, not a pass criterion: kinematic planners may have jumps);
-* status ``reached`` exactly when the task is completed (T(tol) exists and the trajectory
+* the columns tied to each other and to the scenario (:mod:`.consistency`): first sample at
+  t = 0 on the scenario's start, required effort columns present, ``tau`` equal to the model
+  efforts, ddq within the range of the interpolant's acceleration on the adjacent steps;
+* the claimed status one of :class:`~mmplan.trajectory.Status`, and
+  ``reached`` exactly when the task is completed (T(tol) exists and the trajectory
   covers the task: a path's duration, a segment's parameter 1);
 * velocity and acceleration limits on the dq/ddq columns and on what every motion through
   two consecutive samples needs (secants of q, least peak acceleration from q and dq),
@@ -37,14 +43,17 @@ from mmplan.problem import Problem
 from mmplan.robot import Robot
 from mmplan.robot.tree import JointKind
 from mmplan.task import DrawSegment, Task, TrackPath, completion_time
-from mmplan.trajectory import Trajectory
+from mmplan.trajectory import Status, Trajectory
+from mmplan.verify.consistency import Consistency, check_consistency
 from mmplan.verify.rates import RateReport, check_rates
+from mmplan.verify.self_clearance import self_clearance_over
 
 EE_TOL = 1e-6  # [m]
 LIMIT_TOL = 1e-9  # [rad or m]
 TORQUE_TOL = 1e-6  # [N m or N]
 PFAFFIAN_TOL = 1e-6  # [m/s]
 DQ_REL_TOL = 1e-2  # relative to max |dq|
+STATUSES = tuple(s.value for s in Status)
 
 
 @dataclass(frozen=True)
@@ -58,18 +67,19 @@ class CheckReport:
         ee_deviation_m: max_t |FK(q) - ee column|.
         min_clearance_m: Smallest gap between collision spheres and original obstacles
             (None without obstacles); ``clearance_where`` describes where.
+        min_self_clearance_m: Smallest signed distance of the robot's self-collision sphere
+            pairs (None for a robot without pairs); ``self_clearance_where``: which bodies and
+            when.
         max_joint_limit_violation: Largest excess over the arm joint limits (0 inside);
             ``joint_where`` describes where.
         max_torque_violation: Largest excess over the actuator limits (0 within, or without
             finite limits); ``torque_where`` describes where. The efforts checked are the
-            trajectory's tau columns when present, else the model's
-            tau = (N^T B)^-1 N^T (M ddq + c) ([PajakPajak] eq. (20)) from q, dq, ddq.
-        torque_source: ``"trajectory"``, ``"model"`` or ``""`` (no finite limits).
-        tau_model_deviation: max |tau column - model tau| when tau columns are present
-            (None otherwise); reported, not a pass criterion (friction models may differ).
+            model's tau = (N^T B)^-1 N^T (M ddq + c) ([PajakPajak] eq. (22)) from q, dq, ddq;
+            the tau columns must equal them (``consistency``).
+        torque_source: ``"model"``, or ``""`` (no finite limits).
         max_pfaffian_residual: max_t |A(q) dq|_2; ``pfaffian_where``: at which time.
-        dq_residual, ddq_residual: Step-normalized trapezoid residuals (see module doc).
-        dq_scale, ddq_scale: max |dq|, max |ddq| (scales for the relative tolerance).
+        dq_residual: Step-normalized trapezoid residual of q against dq (see module doc).
+        dq_scale, ddq_scale: max |dq| (scale of the relative tolerance), max |ddq|.
         duration_s: T(tol) when the task is completed, else None.
         duration_1cm_s, duration_1mm_s: T(1 cm), T(1 mm) (None if never).
         final_error_m: Task error at the last sample.
@@ -78,6 +88,7 @@ class CheckReport:
         manipulability_start, manipulability_end, manipulability_min: mu along the run.
         status: The status claimed by the planner (None when not given).
         rates: Peaks of velocities and accelerations and the checks of their limits.
+        consistency: Start, required columns, tau vs model, ddq vs the interpolant.
     """
 
     robot: str
@@ -91,12 +102,10 @@ class CheckReport:
     max_torque_violation: float
     torque_where: str
     torque_source: str
-    tau_model_deviation: float | None
     max_pfaffian_residual: float
     pfaffian_where: str
     dq_residual: float
     dq_scale: float
-    ddq_residual: float
     ddq_scale: float
     duration_s: float | None
     duration_1cm_s: float | None
@@ -109,6 +118,14 @@ class CheckReport:
     manipulability_min: float
     status: str | None = None
     rates: RateReport = field(default_factory=RateReport)
+    min_self_clearance_m: float | None = None
+    self_clearance_where: str = ""
+    consistency: Consistency = field(default_factory=Consistency)
+
+    @property
+    def tau_model_deviation(self) -> float | None:
+        """max |tau column - model efforts| (None without tau columns)."""
+        return self.consistency.tau_model_deviation
 
     @property
     def ok(self) -> bool:
@@ -125,6 +142,9 @@ class CheckReport:
                        f"(> {EE_TOL:g} m)")
         if self.min_clearance_m is not None and not self.min_clearance_m >= 0:
             out.append(f"clearance: {self.min_clearance_m:.4g} m < 0, {self.clearance_where}")
+        if self.min_self_clearance_m is not None and not self.min_self_clearance_m >= 0:
+            out.append(f"self-collision: {self.min_self_clearance_m:.4g} m < 0, "
+                       f"{self.self_clearance_where}")
         if not self.max_joint_limit_violation <= LIMIT_TOL:
             out.append(f"joint limits: exceeded by {self.max_joint_limit_violation:.4g}, "
                        f"{self.joint_where}")
@@ -137,7 +157,11 @@ class CheckReport:
         if not self.dq_residual <= DQ_REL_TOL * max(self.dq_scale, 1e-3):
             out.append(f"dq consistency: q differs from the integral of dq by "
                        f"{self.dq_residual:.3g}/s per step (max |dq| = {self.dq_scale:.3g})")
+        out += self.consistency.failures()
         out += self.rates.failures()
+        if self.status is not None and self.status not in STATUSES:
+            out.append(f"status: {self.status!r} is not one of {', '.join(STATUSES)}")
+            return out
         # "reached" needs the task completed; another status with the task completed is
         # honest only when the plan breaks something else (a limit, a collision, ...).
         reached = self.status == "reached"
@@ -162,6 +186,7 @@ class CheckReport:
             "duration_1mm_s": self.duration_1mm_s,
             "final_error_m": self.final_error_m,
             "min_clearance_m": self.min_clearance_m,
+            "min_self_clearance_m": self.min_self_clearance_m,
             "max_joint_limit_violation": self.max_joint_limit_violation,
             "max_torque_violation": self.max_torque_violation,
             "max_pfaffian_residual": self.max_pfaffian_residual,
@@ -239,21 +264,18 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
         clearance_where = (f"obstacles[{o}] vs robot point {point} "
                            f"(on {robot.collision[point].body}) at t = {t[sample]:.4g} s")
 
+    self_clearance, self_where = self_clearance_over(robot, q, t)
+
     lim = robot.limits
     arm = list(robot.arm_indices)
     joint_viol, joint_where = _worst(_excess(q[:, arm], lim.joint_min, lim.joint_max), t,
                                      [robot.coordinates[i] for i in arm])
-    torque_viol, torque_where, torque_source, tau_dev = 0.0, "", "", None
-    has_tau = tr.tau is not None and tr.actuators == robot.actuators
-    if has_tau or lim.has_torque_limits:
-        tau_model = _mapped(robot, "tau", q, dq, ddq).T  # (N, n_act)
-        tau = np.asarray(tr.tau, dtype=float) if has_tau else tau_model
-        if has_tau:
-            tau_dev = float(np.max(np.abs(tau - tau_model)))
-        if lim.has_torque_limits:
-            torque_source = "trajectory" if has_tau else "model"
-            torque_viol, torque_where = _worst(_excess(tau, lim.torque_min, lim.torque_max), t,
-                                               list(robot.actuators))
+    torque_viol, torque_where, torque_source = 0.0, "", ""
+    tau_model = _mapped(robot, "tau", q, dq, ddq).T if robot.actuators else None  # (N, n_act)
+    if lim.has_torque_limits and tau_model is not None:
+        torque_source = "model"
+        torque_viol, torque_where = _worst(_excess(tau_model, lim.torque_min, lim.torque_max),
+                                           t, list(robot.actuators))
 
     pfaff, pfaff_where = 0.0, ""
     if robot.h > 0:
@@ -278,17 +300,18 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
         min_clearance_m=clearance, clearance_where=clearance_where,
         max_joint_limit_violation=joint_viol, joint_where=joint_where,
         max_torque_violation=torque_viol, torque_where=torque_where,
-        torque_source=torque_source, tau_model_deviation=tau_dev,
+        torque_source=torque_source,
         max_pfaffian_residual=pfaff, pfaffian_where=pfaff_where,
         dq_residual=_trapezoid_residual(t, q, dq), dq_scale=float(np.max(np.abs(dq))),
-        ddq_residual=_trapezoid_residual(t, dq, ddq), ddq_scale=float(np.max(np.abs(ddq))),
+        ddq_scale=float(np.max(np.abs(ddq))),
         duration_s=t_tol if completed else None,
         duration_1cm_s=completion_time(t, errors, 0.01),
         duration_1mm_s=completion_time(t, errors, 0.001),
         final_error_m=float(errors[-1]), tolerance=tol, task_completed=bool(completed),
         manipulability_start=float(mu[0]), manipulability_end=float(mu[-1]),
         manipulability_min=float(np.min(mu)), status=None if status is None else str(status),
-        rates=rates,
+        min_self_clearance_m=self_clearance, self_clearance_where=self_where,
+        rates=rates, consistency=check_consistency(tr, problem, tau_model),
     )
 
 

@@ -32,7 +32,7 @@ slack ``RATE_REL_TOL`` = 1e-6 relative (numerical rounding only):
     :math:`|\Delta\dot q_k|` by 2 ``DQ_TOL`` first, so that rounding, and the projection of
     an export's dq onto :math:`\ker A(q)` (at most 5.4e-8 rad/s on the wheels, 1.5e-13 rad/s
     on the heading measured), are not read as accelerations of order DQ_TOL/h (the
-    allowance costs at most 4 ``DQ_TOL``/h: 4e-3 rad/s^2 at 1 kHz). A dq column scaled down
+    allowance costs at most 6 ``DQ_TOL``/h: 6e-3 rad/s^2 at 1 kHz). A dq column scaled down
     (a tampered file) moves :math:`e_k` by a finite fraction of :math:`h\dot q` and is caught;
   - the platform's planar acceleration: from q alone, the second divided difference over
     two steps, :math:`2\,|(s_{k+1} - s_k)|/(t_{k+2} - t_k)` with :math:`s_k` the secant
@@ -44,9 +44,10 @@ Why the step check asks what any motion needs rather than what the Hermite reach
 plan sampled at other times (an export at a fixed rate) has its own Hermite, which on a
 step that contains one of the plan's samples is a different curve: its acceleration is the
 line with the same mean and first moment as the plan's piecewise-linear one, and overshoots a
-jump of the plan's acceleration by up to 2/3 of the jump (measured on the four youBot plans
-exported at 50, 100 and 1000 Hz: the exports' own Hermites reach 1.10 to 1.41 times a limit
-that the plans' Hermites hold). The bounds above never exceed the peaks of the motion the
+jump of the plan's acceleration by up to a third of the jump (measured on the youBot plans
+exported at 50, 100 and 1000 Hz: the exports' own Hermites reach up to 1.10-1.41 times a limit
+that the plans' Hermites hold, the wheels' of youbot3r-obstacles(-torque) and the platform
+acceleration of youbot4r-reach). The bounds above never exceed the peaks of the motion the
 samples come from, so samples of a motion within the limits pass, at any rate; and a file
 passes only when, for each limit by itself, a motion through its samples within it exists
 (exactly so for the coordinates' limits and the speeds; the planar acceleration's bound is a
@@ -65,6 +66,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mmplan.arrays import Array
 from mmplan.errors import InputError
@@ -232,6 +234,10 @@ def check_rates(t: Array, q: Array, dq: Array, ddq: Array, coordinates: tuple[st
     )
 
 
+#: A bound per window of samples, and the indices of each window's first and last sample.
+_Windows = tuple[Array, NDArray[np.intp], NDArray[np.intp]]
+
+
 class _Steps:
     """What every C1 motion through consecutive samples must reach (module doc). Each method
     returns the bound per window and the index of the window's first and last sample."""
@@ -243,15 +249,15 @@ class _Steps:
         self.dpos = np.diff(q, axis=0)  # (N - 1, n)
         self.dvel = np.diff(dq, axis=0)
         self.trap = self.dpos - 0.5 * self.h[:, None] * (dq[:-1] + dq[1:])  # e_k
-        self.one = np.arange(len(h))
+        self.one = np.arange(len(h), dtype=np.intp)
 
-    def secant(self, index: tuple[int, ...]) -> tuple[Array, Array, Array]:
+    def secant(self, index: tuple[int, ...]) -> _Windows:
         """|Delta q| / h over the coordinates ``index`` (a norm for two) per step."""
         d = self.dpos[:, list(index)]
         speed = np.where(self.finite, np.sqrt(np.sum(d * d, axis=1)) / self.h, 0.0)
         return speed, self.one, self.one + 1
 
-    def least_acceleration(self, index: tuple[int, ...]) -> tuple[Array, Array, Array]:
+    def least_acceleration(self, index: tuple[int, ...]) -> _Windows:
         """A* of one coordinate per step, with the DQ_TOL allowance; for two, the planar
         second divided difference of q per pair of steps."""
         if len(index) == 2:

@@ -16,6 +16,8 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from mmplan.compile.model_cache import ModelCache
 from mmplan.planners.extended_jacobian.criterion import Partition, build_criterion
 from mmplan.planners.extended_jacobian.generator import (
@@ -48,14 +50,25 @@ def generator(
     varrho: float,
     arm_weight: float,
     codegen: bool,
+    posture: tuple[float, ...] | None = None,
+    heading: float | None = None,
 ) -> Built:
-    """The generator functions of this robot, partition, obstacles and settings (cached)."""
-    key = (tuple(partition.R), tuple(obstacles), penalty_weight, varrho, arm_weight, codegen)
+    """The generator functions of this robot, partition, obstacles, settings and criterion
+    terms (posture weight, heading reference: :mod:`~mmplan.planners.extended_jacobian.
+    posture`), cached."""
+    key = (tuple(partition.R), tuple(obstacles), penalty_weight, varrho, arm_weight, codegen,
+           posture, heading)
     hit = _CACHE.get(robot, key)
     if hit is not None:
         return Built(hit, 0.0, True)
     clock = time.perf_counter()
-    crit = build_criterion(robot, partition, penalty_weight)
+    crit = build_criterion(
+        robot,
+        partition,
+        penalty_weight,
+        posture=None if posture is None else np.asarray(posture),
+        heading=heading,
+    )
     fns = build_functions(robot, crit, obstacles, varrho, arm_weight, codegen=codegen)
     _CACHE.put(robot, key, fns)
     return Built(fns, time.perf_counter() - clock, False)

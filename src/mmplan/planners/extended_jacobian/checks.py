@@ -85,12 +85,13 @@ def check_start_clearance(
     if not obstacles:
         return
     points = robot.collision_points(q0)  # (P, 3)
-    exact = np.asarray(scene.distances(points), dtype=float)  # (P, n_obs)
+    radii = np.asarray(robot.collision_radii, dtype=float)  # (P,)
+    exact = np.asarray(scene.distances(points), dtype=float) - radii[:, None]  # (P, n_obs)
     if exact.size and float(exact.min()) < 0.0:
         j = int(np.unravel_index(int(np.argmin(exact)), exact.shape)[1])
         raise InputError("start", f"in collision with obstacle {j} (distance {exact.min():.3f} m)")
     for j, ob in enumerate(obstacles):
-        c_min = float(np.min(ob.model.radial_distance(points)))
+        c_min = float(np.min(ob.model.radial_distance(points) - radii))
         if c_min <= 0.0:
             raise InputError(
                 "start",

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.planners.extended_jacobian import divergence
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
@@ -94,6 +95,8 @@ def run(
     kk = k + np.arange(K)
     t = kk * dt
     event = ~np.isfinite(flag) | ~np.all(np.isfinite(X), axis=1) | (err < opt.stop_error)
+    states_dq = np.vstack([dq[None, :], X[:-1, n:]])  # dq at each sample
+    event |= divergence.insane(states_dq, ddq)  # the loop ends the run there
     event |= ok < 0.5
     history = rows.error(max(0, k - clock.window), k)
     older = np.concatenate([history, err])  # err at sample kk - window, where kk >= window

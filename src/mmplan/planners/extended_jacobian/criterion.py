@@ -7,6 +7,10 @@ and a goal parameter ``p_f`` (3,); derivatives come from CasADi AD, never by han
   :math:`H(q) = -\mu(q_a) + \sum_i w/(q_i - q_{i,min}) + w/(q_{i,max} - q_i)` over the arm
   joints (our choice, see docs/extended_jacobian.md: the penalty acts over the whole range,
   otherwise q1 is undetermined because mu does not depend on it and E is singular at the goal).
+  Real robots (docs/extended_jacobian.md, Real robots): mu at the wrist centre
+  (:mod:`~mmplan.planners.extended_jacobian.wrist`), a posture term on redundant arms and a
+  heading term on omnidirectional platforms (:mod:`~mmplan.planners.extended_jacobian.posture`);
+  none of them applies to the papers' youBots.
 * Transversality, [PajakPajak] eq. (11), [Pajak] eq. (9), with the stacked Jacobian Jc = [J; A]
   (m+h, n) split into columns R (m+h) and F (n-m-h):
   :math:`g(q) = H_F - (Jc_R^{-1} Jc_F)^T H_R`; by default in the cheaper equal form of
@@ -22,8 +26,11 @@ Partition rule (our choice, see docs/extended_jacobian.md: R must not contain th
 Jacobian, or Jc_R^-1 holds its inverse and the run diverges near arm singularities): R holds every
 platform coordinate (the wheel angles make A's columns invertible) plus the
 m + h - n_platform arm joints whose choice gives the best-conditioned Jc_R at the start
-q0; ties go to the earlier joint. For youbot-3r this selects R = {x, y, theta, phi1, phi2, q2}
-and F = {q1, q3}, the partition of [RefRuns].
+q0; ties go to the earlier joint. When no such R is invertible (an omnidirectional
+platform, h = 0: x, y, theta move the end effector only in the plane), R holds as many
+platform coordinates as possible (ur5-omni: x, y and shoulder_lift_joint). For youbot-3r
+this selects R = {x, y, theta, phi1, phi2, q2} and F = {q1, q3}, the partition of
+[RefRuns].
 """
 
 from __future__ import annotations
@@ -37,10 +44,12 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.errors import InputError
+from mmplan.planners.extended_jacobian.posture import heading_term, posture_term
 from mmplan.planners.extended_jacobian.structure import (
     reduced_manipulability,
     structured_transversality,
 )
+from mmplan.planners.extended_jacobian.wrist import find_wrist, wrist_jacobian
 from mmplan.robot.robot import Robot
 
 
@@ -71,23 +80,27 @@ def choose_partition(robot: Robot, q0: Array) -> Partition:
     """
     n, m, h = robot.n, 3, robot.h
     n_r = m + h
-    platform = tuple(range(robot.n_platform))
-    extra = n_r - len(platform)
-    if extra < 0 or extra > len(robot.arm_indices):
+    if n_r > n:
         raise InputError("robot", f"{robot.name}: cannot partition {n} columns into R of {n_r}")
     Jc = stacked_jacobian(robot, q0)
-    best: tuple[float, tuple[int, ...]] | None = None
-    for arm in itertools.combinations(robot.arm_indices, extra):
-        R = platform + arm
-        cond = float(np.linalg.cond(Jc[:, list(R)]))
-        if np.isfinite(cond) and (best is None or cond < 0.999 * best[0]):
-            best = (cond, R)
-    if best is None or best[0] > 1e10:
-        raise InputError(
-            "start", f"Jc_R is singular at the start for every partition of {robot.name}"
-        )
-    R = best[1]
-    return Partition(R, tuple(i for i in range(n) if i not in R))
+    # As many platform columns as keep Jc_R invertible: all of them for wheeled platforms
+    # (A needs the wheel angles); an omnidirectional platform (h = 0) cannot move the end
+    # effector vertically, so x, y, theta and nothing else is singular: one platform column
+    # (theta, dependent on x and y in the plane) then goes to F.
+    for keep in range(min(robot.n_platform, n_r), -1, -1):
+        best: tuple[float, tuple[int, ...]] | None = None
+        for platform in itertools.combinations(range(robot.n_platform), keep):
+            for arm in itertools.combinations(robot.arm_indices, n_r - keep):
+                R = platform + arm
+                cond = float(np.linalg.cond(Jc[:, list(R)]))
+                if np.isfinite(cond) and (best is None or cond < 0.999 * best[0]):
+                    best = (cond, R)
+        if best is not None and best[0] <= 1e10:
+            R = best[1]
+            return Partition(R, tuple(i for i in range(n) if i not in R))
+    raise InputError(
+        "start", f"Jc_R is singular at the start for every partition of {robot.name}"
+    )
 
 
 def repartition(robot: Robot, q: Array, current: Partition) -> Partition | None:
@@ -144,7 +157,12 @@ def joint_limit_penalty(q_arm: ca.SX, q_min: Array, q_max: Array, weight: float)
 
 
 def build_criterion(
-    robot: Robot, partition: Partition, weight: float = 0.01, structured: bool = True
+    robot: Robot,
+    partition: Partition,
+    weight: float = 0.01,
+    structured: bool = True,
+    posture: Array | None = None,
+    heading: float | None = None,
 ) -> Criterion:
     """Build H, g, e_I, E, v1 for ``robot`` ([PajakPajak] eqs. (9)-(16)).
 
@@ -153,20 +171,33 @@ def build_criterion(
     seeded
     states; 3-10x fewer operations in g, E and v1); ``structured=False`` is the
     straightforward reference: mu from the robot and g with the symbolic (m+h) solve.
+    ``posture`` holds the weights beta_i of the posture term (None or zeros: none, the
+    papers' criterion);
+    ``heading`` theta_ref of the heading term for a platform whose heading the rest leaves
+    undetermined (None: no term; :mod:`~mmplan.planners.extended_jacobian.posture`). mu is
+    measured at the wrist centre when the arm has one
+    (:mod:`~mmplan.planners.extended_jacobian.wrist`), else at the end effector.
     """
     s = robot.symbols
     q, dq = s.q, s.dq
     p_f = ca.SX.sym("p_f", 3)
     q_arm = q[list(robot.arm_indices)]
     penalty = joint_limit_penalty(q_arm, robot.limits.joint_min, robot.limits.joint_max, weight)
-    H = -s.manipulability + penalty
+    if posture is not None and np.any(np.asarray(posture) > 0.0):
+        penalty += posture_term(q_arm, robot.limits.joint_min, robot.limits.joint_max, posture)
+    if heading is not None:
+        penalty += heading_term(q, heading)
+    wrist = find_wrist(robot)
+    J_w = None if wrist is None else wrist_jacobian(robot, wrist)
+    mu = s.manipulability if J_w is None else ca.sqrt(ca.fmax(ca.det(J_w @ J_w.T), 0))
+    H = -mu + penalty
     g = reference_transversality(robot, partition, H)
     if structured:
-        H_red = -reduced_manipulability(robot) + penalty
+        H_red = -reduced_manipulability(robot, J_w) + penalty
         g_red = structured_transversality(robot, partition.R, partition.F, ca.gradient(H_red, q))
         if g_red is None:  # R without every platform column: the solve, with the cheaper mu
             g_red = reference_transversality(robot, partition, H_red)
-        if _agree(q, g, g_red, robot):
+        if _agree(q, p_f, g, g_red, robot):
             H, g = H_red, ca.cse(g_red)
     e_I = ca.vertcat(s.ee_position - p_f, g)
     De = ca.jacobian(e_I, q)
@@ -188,16 +219,18 @@ def reference_transversality(robot: Robot, partition: Partition, H: ca.SX) -> ca
     return Hq[F] - X.T @ Hq[R]
 
 
-def _agree(q: ca.SX, g: ca.SX, g_red: ca.SX, robot: Robot, states: int = 2) -> bool:
+def _agree(
+    q: ca.SX, p_f: ca.SX, g: ca.SX, g_red: ca.SX, robot: Robot, states: int = 2
+) -> bool:
     """Guard: the structured g equals the reference at a few seeded random states."""
-    fn = ca.Function("g_check", [q], [g, g_red])
+    fn = ca.Function("g_check", [q, p_f], [g, g_red])
     rng = np.random.default_rng(0)
     lo = np.where(np.isfinite(robot.limits.joint_min), robot.limits.joint_min, -np.pi)
     hi = np.where(np.isfinite(robot.limits.joint_max), robot.limits.joint_max, np.pi)
     for _ in range(states):
         x = rng.uniform(-1.0, 1.0, robot.n)
         x[list(robot.arm_indices)] = lo + (hi - lo) * rng.uniform(0.2, 0.8, len(lo))
-        ref, red = (np.asarray(v, dtype=float).ravel() for v in fn(x))
+        ref, red = (np.asarray(v, dtype=float).ravel() for v in fn(x, [0.7, -0.4, 0.5]))
         if not np.allclose(red, ref, rtol=1e-8, atol=1e-8 * max(1.0, float(np.abs(ref).max()))):
             return False
     return True

@@ -120,7 +120,11 @@ def build_functions(
     # Wheel-metric null-space projector.
     Winv = ca.diag(ca.DM(wheel_metric_inverse(robot)))
     P = ca.SX.eye(n) - Winv @ A.T @ ca.solve(A @ Winv @ A.T, A)
-    K = obstacle_penalty(s.collision_points, obstacles) if obstacles else ca.SX(0)
+    K = (
+        obstacle_penalty(s.collision_points, obstacles, radii=robot.collision_radii)
+        if obstacles
+        else ca.SX(0)
+    )
     G = np.ones(n)
     G[list(robot.arm_indices)] = arm_weight
     gK = ca.gradient(K, q)

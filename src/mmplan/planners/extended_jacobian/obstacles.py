@@ -64,24 +64,41 @@ class ObstacleTerm:
 
 
 def obstacle_penalty(
-    points: ca.SX, obstacles: Sequence[ObstacleTerm], c_floor: float = 1e-3
+    points: ca.SX,
+    obstacles: Sequence[ObstacleTerm],
+    c_floor: float = 1e-3,
+    radii: Array | None = None,
 ) -> ca.SX:
     """K = sum_{o, points} kappa_o(C) with kappa_o = ((delta - C)/C)^2 for C < delta, else 0.
 
     Args:
-        points: Collision points (3, P).
+        points: Collision points (3, P): sphere centres.
         obstacles: Obstacles with their neighbourhood delta.
         c_floor: C is clamped below at this value [m] (the barrier is then ~(delta/c_floor)^2).
+        radii: Sphere radii (P,) [m]: C is the radial distance of the centre minus the radius
+            (the gap of the sphere's surface along the ray). None or all zero: points
+            ([PajakPajak]'s collision points; the youBot models). A URDF robot's spheres are
+            up to 0.19 m (TIAGo's platform): as points the obstacle term let them into the
+            obstacles.
     """
     total = ca.SX(0)
     point = ca.SX.sym("point", 3)
+    radius = ca.SX.sym("radius")
+    spheres = radii is not None and bool(np.any(np.asarray(radii) > 0.0))
     for ob in obstacles:
         # One expression per obstacle, mapped over the points (same operations, ~40x faster
         # to build than one Python-level expression per point).
-        C = ca.fmax(ob.model.radial_distance_sym(point), c_floor)
+        gap = ob.model.radial_distance_sym(point)
+        if spheres:
+            gap = gap - radius
+        C = ca.fmax(gap, c_floor)
         kappa = ca.if_else(ob.influence > C, ((ob.influence - C) / C) ** 2, 0.0)
-        per_point = ca.Function("kappa", [point], [kappa]).map(points.shape[1])
-        total += ca.sum2(per_point(points))
+        if spheres:
+            per_sphere = ca.Function("kappa", [point, radius], [kappa]).map(points.shape[1])
+            total += ca.sum2(per_sphere(points, ca.DM(np.asarray(radii, dtype=float)).T))
+        else:
+            per_point = ca.Function("kappa", [point], [kappa]).map(points.shape[1])
+            total += ca.sum2(per_point(points))
     return total
 
 
@@ -187,7 +204,7 @@ def obstacle_functions(
     grad: ca.MX = ca.MX.zeros(n)
     for g, idx in enumerate(groups):
         for j, ob in enumerate(obstacles):
-            K = obstacle_penalty(points[:, idx], [ob])
+            K = obstacle_penalty(points[:, idx], [ob], radii=robot.collision_radii[idx])
             name = f"mmplan_obst_g{g}_o{j}"
             block = ca.Function(name, [q], ca.cse([ca.vertcat(K, ca.gradient(K, q))]))
             value = ca.Function(name + "_k", [q], ca.cse([K]))

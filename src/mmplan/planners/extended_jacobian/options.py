@@ -43,6 +43,7 @@ class RolloutOptions:
     max_escapes: int
     cond_limit: float
     rates: RateModel | None = None
+    coordinates: tuple[str, ...] = ()
     cond_every: int = 50
     switch_cond: float = 1e5
     max_switches: int = 4
@@ -55,7 +56,8 @@ class RolloutOptions:
 
         Torque control is on when the robot has torque limits, unless the settings say
         otherwise (``virtual_control.enabled``); the run stops at half the tolerance.
-        ``rates`` holds the robot's velocity and acceleration limits (None when it has none).
+        ``rates`` holds the robot's velocity and acceleration limits (None when it has none),
+        ``coordinates`` the names for messages.
         """
         vcs = settings.virtual_control
         limits = robot.limits
@@ -81,6 +83,7 @@ class RolloutOptions:
             max_escapes=settings.max_escapes,
             cond_limit=settings.cond_limit,
             rates=_rates(robot),
+            coordinates=robot.coordinates,
         )
 
 

@@ -51,6 +51,7 @@ from mmplan.planners.extended_jacobian.generator import (
 )
 from mmplan.planners.extended_jacobian.online import OnlineGenerator
 from mmplan.planners.extended_jacobian.options import RolloutOptions
+from mmplan.planners.extended_jacobian.posture import heading_reference, posture_weights
 from mmplan.planners.extended_jacobian.rollout import rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
 from mmplan.planners.extended_jacobian.time_scaling import retime, rollout_time_scaled
@@ -162,6 +163,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         ej_checks.check_start_clearance(robot, problem.scene, obstacles, q0)
         obstacles = ej_checks.fit_influence(obstacles, p_f)
         partition = choose_partition(robot, q0)
+        posture = tuple(float(b) for b in posture_weights(robot, settings.posture_weight))
+        heading = heading_reference(robot, q0, p_f)
         built = ej_cache.generator(
             robot,
             partition,
@@ -170,6 +173,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             settings.varrho,
             settings.arm_gradient_weight,
             settings.codegen,
+            posture,
+            heading,
         )
         fns, build_time = built.fns, built.build_time
         options = RolloutOptions.from_settings(settings, robot, task.tolerance)
@@ -192,7 +197,9 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             if other is None:
                 return None
             partitions.append(other)
-            crit = build_criterion(robot, other, settings.penalty_weight)
+            crit = build_criterion(
+                robot, other, settings.penalty_weight, posture=np.asarray(posture), heading=heading
+            )
             return build_functions(
                 robot, crit, obstacles, settings.varrho, settings.arm_gradient_weight
             )

@@ -42,6 +42,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import chunks as ej_fastpath
+from mmplan.planners.extended_jacobian import divergence
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
@@ -66,6 +67,23 @@ class RolloutResult:
     info: dict[str, Any] = field(default_factory=dict)
     effort: Array | None = None  # [Tm dq, Tg] (N, 2 n_act) when recorded (time scaling)
     w: Array | None = None  # time rate of a re-timed feedback plan (N,) (time_scaling.retime)
+
+
+def _keep_start(
+    rows: SampleLog, t: float, q: Array, dq: Array, tau_g: Array, u: float, err: float
+) -> None:
+    """A run that diverges at its first sample keeps the start, at rest, holding gravity."""
+    if len(rows) == 0:
+        tau = np.where(np.isfinite(tau_g), tau_g, 0.0)
+        rows.add_one(t, q, dq, np.zeros_like(q), tau, u, 1.0, err)
+
+
+def _cond(fns: GeneratorFunctions, q: Array, p: Array) -> float | None:
+    """cond(E) at q, None when not finite."""
+    if not np.all(np.isfinite(q)):
+        return None
+    E = np.asarray(fns.E(q, p), dtype=float)
+    return float(np.linalg.cond(E)) if np.all(np.isfinite(E)) else None
 
 
 def _projector(A: Array, winv: Array) -> Array:
@@ -123,7 +141,9 @@ def rollout(
         out = fns.evaluate(q, dq, p)
         f0, fv, S, err = out.f0, out.fv, out.S, out.err
         if not (np.all(np.isfinite(f0)) and np.all(np.isfinite(fv)) and np.isfinite(S)):
-            status, message = Status.DIVERGED, f"generator produced NaN at t = {t:.3f} s"
+            status = Status.DIVERGED
+            message = divergence.message(t, dq, f0 + fv, opt.coordinates, _cond(fns, q, p))
+            _keep_start(rows, t, q, dq, out.Tg, u, err)
             break
         if k % opt.cond_every == 0:
             cond = float(np.linalg.cond(np.asarray(fns.E(q, p), dtype=float)))
@@ -150,6 +170,11 @@ def rollout(
             infeasible_first = t if infeasible_first is None else infeasible_first
         s_min = min(s_min, s) if S > 0.0 else s_min
         ddq, tau = d.ddq, d.tau
+        if divergence.insane(dq, ddq)[0]:
+            status = Status.DIVERGED
+            message = divergence.message(t, dq, ddq, opt.coordinates, _cond(fns, q, p))
+            _keep_start(rows, t, q, dq, out.Tg, u, err)
+            break
         rows.add_one(t, q, dq, ddq, tau, u, s, err, np.concatenate([out.Tm @ dq, out.Tg]))
         if err < opt.stop_error:
             status, message = Status.REACHED, f"goal reached at t = {t:.3f} s"
@@ -174,7 +199,8 @@ def rollout(
             break
         q, dq = fns.advance(q, dq, u, s, ext, p, dt)
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
-            status, message = Status.DIVERGED, f"state became NaN after t = {t:.3f} s"
+            status = Status.DIVERGED
+            message = divergence.message(t + dt, dq, ddq, opt.coordinates, None)
             break
     info = {
         "max_cond_E": max_cond,
@@ -204,6 +230,10 @@ def finish(
     if not len(rows):
         raise RuntimeError("rollout produced no sample")  # cannot happen: k = 0 is recorded
     arr = rows.arrays()
+    if status is Status.DIVERGED:  # drop the blow-up (divergence.onset)
+        keep = divergence.onset(arr["ddq"], len(arr["t"]))
+        arr = {key: value[:keep] for key, value in arr.items()}
+        message += f" ({len(rows) - keep} samples before it)" if keep < len(rows) else ""
     over = np.zeros(len(arr["t"]))
     if opt.torque_control:
         t_lo, t_hi = opt.limits

@@ -68,6 +68,12 @@ class ExtendedJacobianSettings(PlannerSettings):
                              description="Lambda_II, Pfaffian error rate")
     penalty_weight: float = Field(0.01, gt=0, allow_inf_nan=False,
                                   description="joint-limit penalty w")
+    posture_weight: float | None = Field(
+        None, ge=0, allow_inf_nan=False,
+        description="posture term beta [1/rad^2] on every arm joint (posture.posture_term); "
+        "null: 1 on wrist joints, and on every arm joint when more than 4 position the "
+        "manipulability point, else 0 (the papers' youBots)",
+    )
     obstacle_margin: float = Field(0.05, ge=0, allow_inf_nan=False,
                                    description="enlargement of obstacles [m]")
     influence: float = Field(

@@ -54,21 +54,24 @@ def rigid_coordinates(robot: Robot) -> tuple[int, ...]:
     )
 
 
-def reduced_manipulability(robot: Robot) -> ca.SX:
+def reduced_manipulability(robot: Robot, J: ca.SX | None = None) -> ca.SX:
     """mu(q) ([PajakPajak] eq. (5)) with the rigid coordinates set to 0, in a cheaper equal form.
 
     Equal to the robot's sqrt(det(J_mu J_mu^T)) up to rounding (:func:`rigid_coordinates`),
     with J_mu (k, n_a) taken at zero rigid coordinates and det(J_mu J_mu^T) = det(J_mu)^2
     when square, the sum of the squared k x k minors (Cauchy-Binet) with one redundant
     joint. Fewer operations to differentiate three times, and no loss of digits at small mu.
+    ``J``: another point's Jacobian over the arm joints that move it (the wrist centre,
+    :mod:`~mmplan.planners.extended_jacobian.wrist`); default the robot's J_mu.
     """
     s = robot.symbols
     zero = ca.SX(s.q)
     for k in rigid_coordinates(robot):
         zero[k] = 0
-    J = s.jacobian_arm
-    if robot.end_effector.manipulability == "pose":
-        J = ca.vertcat(J, angular_jacobian(s.ee_rotation, s.q)[:, list(robot.arm_indices)])
+    if J is None:
+        J = s.jacobian_arm
+        if robot.end_effector.manipulability == "pose":
+            J = ca.vertcat(J, angular_jacobian(s.ee_rotation, s.q)[:, list(robot.arm_indices)])
     J = ca.substitute(J, s.q, zero)
     k, n_a = J.shape
     if n_a == k:

@@ -34,6 +34,7 @@ from mmplan.robot.urdf.parse import (
     vec3,
     xyz_rpy,
 )
+from mmplan.robot.urdf.record import record_arguments
 from mmplan.robot.urdf.reduce import Reduction, reduce_model
 from mmplan.robot.urdf.robot import UrdfRobot, UrdfSource
 from mmplan.robot.urdf.spec import (
@@ -186,6 +187,7 @@ def load_urdf_robot(
             points.setdefault(PLATFORM, []).append(_box_points(spec.box, collision.spacing))
         order = list(dict.fromkeys([PLATFORM, *body_of_joint.values()]))
         spheres = col.fit_body_spheres(order, points, exact, collision)
+        spheres = col.replace_spheres(spheres, collision.spheres, order, "robot.collision.spheres")
     reference_pin = _reference(rm)
     transforms = col.reference_transforms(rm, reference_pin, body_of_joint, root)
     adjacent = {frozenset((body_of_joint[int(rm.parents[j])], body_of_joint[j]))
@@ -200,9 +202,12 @@ def load_urdf_robot(
         jid = int(rm.getJointId(c))
         if rm.joints[jid].nq == 1:
             reference[len(base.coordinates) + k] = reference_pin[int(rm.idx_qs[jid])]
-    source = UrdfSource(None if is_xml(urdf) else str(urdf), end_effector, reduction.chain,
-                        reduction.wheels, reduction.held, reference, derived)
     robot_name = name or str(model.name) or "urdf-robot"
+    arguments = record_arguments(
+        urdf, spec, end_effector, held, mounting, robot_name, ee_offset, package_dirs, srdf,
+        collision, description)
+    source = UrdfSource(None if is_xml(urdf) else str(urdf), end_effector, reduction.chain,
+                        reduction.wheels, reduction.held, reference, derived, arguments)
     text = description or (f"{model.name or 'URDF robot'} ({label}): {spec.kind.value} platform, "
                            f"{len(coordinates)} joints to {end_effector}")
     end = EndEffector(body_of_joint[int(frame.parentJoint)], vec3(offset))

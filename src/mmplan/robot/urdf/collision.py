@@ -124,3 +124,37 @@ def srdf_disabled_pairs(
         if a is not None and b is not None and a != b:
             out.add(frozenset((a, b)))
     return out
+
+
+def replace_spheres(
+    spheres: Sequence[CollisionSphere],
+    given: Mapping[str, Sequence[tuple[Sequence[float], float]]],
+    bodies: Sequence[str],
+    key: str,
+) -> list[CollisionSphere]:
+    """``spheres`` with those of each body named in ``given`` replaced by the given ones.
+
+    Raises:
+        InputError: a body that is not one of ``bodies``, a centre that is not 3 finite
+            numbers, or a negative or non-finite radius.
+    """
+    from mmplan.errors import InputError
+
+    for body, items in given.items():
+        if body not in bodies:
+            raise InputError(f"{key}.{body}", f"unknown body {body!r}; bodies: "
+                             f"{', '.join(bodies)} (platform, wheel links, moving links)")
+        for i, (center, radius) in enumerate(items):
+            c = np.asarray(center, dtype=float)
+            if c.shape != (3,) or not np.isfinite(c).all():
+                raise InputError(f"{key}.{body}[{i}].center", f"expected 3 finite numbers "
+                                 f"(x, y, z) in the body's frame, got {list(center)!r}")
+            if not np.isfinite(radius) or radius < 0:
+                raise InputError(f"{key}.{body}[{i}].radius", f"expected a radius >= 0 m, "
+                                 f"got {radius!r}")
+    out = [s for s in spheres if s.body not in given]
+    for body, items in given.items():
+        out += [CollisionSphere(body, vec3(np.asarray(c, dtype=float)), float(r))
+                for c, r in items]
+    order = {b: i for i, b in enumerate(bodies)}
+    return sorted(out, key=lambda s: order[s.body])  # stable: body order, fitted order within

@@ -7,6 +7,7 @@ track, held joints, reference pose) and the self-collision pairs of its collisio
 from __future__ import annotations
 
 import copy
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -31,6 +32,9 @@ class UrdfSource:
             or at the limit nearest zero. Self-collision pairs overlapping here are skipped.
         derived: Numbers derived from the file with where they come from, e.g.
             ``{"wheel_radius": (0.0985, "collision cylinder of wheel_left_link")}``.
+        arguments: The :func:`~mmplan.robot.urdf.load_urdf_robot` call in the form of a
+            scenario's ``robot: {urdf: ...}`` entry (paths absolute, plain lists and floats):
+            loading it again builds the same robot (plan folders record it).
     """
 
     urdf: str | None
@@ -40,6 +44,7 @@ class UrdfSource:
     held: Mapping[str, float]
     reference: Array
     derived: Mapping[str, tuple[float, str]] = field(default_factory=dict)
+    arguments: Mapping[str, Any] = field(default_factory=dict)
 
 
 class UrdfRobot(Robot):
@@ -68,6 +73,8 @@ class UrdfRobot(Robot):
         """A copy with other collision spheres (and pairs; none by default).
 
         The kinematics and dynamics are shared; functions of the collision points are rebuilt.
+        The copy's ``source.arguments`` are empty (a plan folder cannot record it; give
+        spheres by hand as ``CollisionOptions(spheres=...)`` to keep it recordable).
         """
         for sphere in spheres:
             if sphere.body not in self.tree.bodies:
@@ -75,6 +82,8 @@ class UrdfRobot(Robot):
         other = copy.copy(self)
         other.collision = tuple(spheres)
         other.self_collision = self_collision or SelfCollision()
+        # hand-placed spheres are not in the load arguments: the copy cannot be rebuilt from them
+        other.source = dataclasses.replace(self.source, arguments={})
         other._shared = {}
         other.__dict__.pop("collision_radii", None)
         return other

@@ -195,11 +195,15 @@ class CollisionOptions:
         spacing: Surface sampling of primitives, mesh edges and wide triangles [m].
         max_spheres_per_body: Upper bound on the spheres of one body (beyond it the last
             spheres grow to cover what is left, sticking out further).
+        spheres: Spheres given by hand, by body (``platform``, a wheel link or the child
+            link of a moving joint): ``(center in that body's frame [m], radius [m])``. They
+            replace the body's fitted spheres (self-collision pairs are chosen after).
     """
 
     tolerance: float = 0.05
     spacing: float = 0.02
     max_spheres_per_body: int = 200
+    spheres: Mapping[str, Sequence[tuple[Vec3, float]]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
