@@ -127,14 +127,15 @@ def test_tau_columns_must_equal_the_model_efforts() -> None:
     """A tau column off the model (wheel1 at t = 0.17 s) fails, naming the actuator;
     the torque limits are judged on the model, so that column hides or adds nothing there."""
     tr = drive()
-    tau = np.array(tr.tau)
+    honest = np.array(tr.tau)
+    tau = honest.copy()
     tau[17, 0] = 1.8  # over the wheel1 limit 1.5 if it were believed
     report = check(drive(tau=tau), problem())
-    assert report.tau_model_deviation == pytest.approx(1.8 - tr.tau[17, 0], rel=1e-12)
+    assert report.tau_model_deviation == pytest.approx(1.8 - honest[17, 0], rel=1e-12)
     assert report.max_torque_violation == 0.0  # the model's wheel efforts are 0 here
     assert any(line.startswith("tau vs model") and "wheel1 at t = 0.17 s" in line
                for line in report.failures())
-    nearly = np.array(tr.tau)
+    nearly = honest.copy()
     nearly[17, 0] += 0.5 * TAU_MODEL_TOL
     assert check(drive(tau=nearly), problem()).ok
 
@@ -153,7 +154,8 @@ def test_torque_limits_are_judged_on_model_efforts() -> None:
     strict = problem(limits={"torque": {"max": [1.5, 1.5, 1.0, -9.5, 0.0]}})
     excess = np.max(reference[:, 3] - (-9.5))
     assert excess == pytest.approx(0.52, abs=0.01)
-    for tau in (tr.tau, np.minimum(tr.tau, [1.5, 1.5, 1.0, -9.5, 0.0])):
+    honest = np.array(tr.tau)
+    for tau in (honest, np.minimum(honest, [1.5, 1.5, 1.0, -9.5, 0.0])):
         report = check(drive(tau=tau), strict)
         assert report.max_torque_violation == pytest.approx(excess, rel=1e-9)
         assert any("torque limits" in line and "q2" in line and "model efforts" in line

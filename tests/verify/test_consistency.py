@@ -88,7 +88,8 @@ def test_extended_jacobian_plans_carry_tau_and_u() -> None:
 def test_effort_columns_must_name_the_robots_actuators_in_order() -> None:
     tr = drive()
     robot = get_robot("youbot-3r")
-    swapped = dataclasses.replace(tr, actuators=robot.actuators[::-1], tau=tr.tau[:, ::-1])
+    swapped = dataclasses.replace(tr, actuators=robot.actuators[::-1],
+                                  tau=np.array(tr.tau)[:, ::-1])
     lines = _lines(check(swapped, problem()), "columns: effort columns tau.q3, tau.q2")
     assert lines and "expected tau.wheel1, tau.wheel2, tau.q1, tau.q2, tau.q3" in lines[0]
 

@@ -20,12 +20,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.report import meshes
 from mmplan.report.visuals import Visual, VisualKind
+
+if TYPE_CHECKING:
+    from mmplan.robot.urdf.robot import UrdfRobot
 
 #: Triangles of all meshes of one robot above which meshes are decimated.
 MAX_TRIANGLES = 150_000
@@ -97,7 +101,7 @@ class _Shapes:
         return len(self.shapes[key][1]) > 0
 
 
-def urdf_body_visuals(robot: object) -> UrdfLooks:
+def urdf_body_visuals(robot: UrdfRobot) -> UrdfLooks:
     """The visual pieces of a :class:`~mmplan.robot.urdf.UrdfRobot` by body (see the module
     docstring); empty for a robot given as URDF text."""
     from mmplan.robot.urdf.visuals import visual_elements
@@ -105,7 +109,7 @@ def urdf_body_visuals(robot: object) -> UrdfLooks:
     looks = UrdfLooks()
     shapes = _Shapes()
     pending: list[_Mesh] = []
-    for body, elements in visual_elements(robot).items():  # type: ignore[arg-type]
+    for body, elements in visual_elements(robot).items():
         pieces = looks.bodies.setdefault(body, [])
         taken: set[str] = set()
         for element in elements:

@@ -32,6 +32,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -39,6 +40,9 @@ from mmplan.arrays import Array
 from mmplan.robot import KinematicCar, Robot, UnicycleDrive
 from mmplan.robot.bases import PLATFORM
 from mmplan.robot.tree import Inertial, Joint, JointKind
+
+if TYPE_CHECKING:
+    from mmplan.robot.urdf.robot import UrdfRobot
 
 PLATFORM_COLOR = "#607d8b"
 WHEEL_COLOR = "#263238"
@@ -276,15 +280,16 @@ def robot_looks(robot: Robot, ranges: Mapping[str, tuple[float, float]] | None =
     """:func:`body_visuals` with the legend saying how the robot is drawn."""
     from mmplan.robot.urdf.robot import UrdfRobot
 
+    note = ""
     if isinstance(robot, UrdfRobot) and robot.source.urdf is not None:
-        looks = _urdf_looks(robot)
+        looks, note = _urdf_looks(robot)
         if looks is not None:
             return looks
     out: dict[str, list[Visual]] = {name: [] for name in robot.tree.bodies}
     _platform_visuals(robot, out)
     _wheel_bodies(robot, out)
     _arm_visuals(robot, ranges or {}, out)
-    return Looks({name: tuple(v) for name, v in out.items() if v})
+    return Looks({name: tuple(v) for name, v in out.items() if v}, BUILTIN_LEGEND + note)
 
 
 def _wheel_bodies(robot: Robot, out: dict[str, list[Visual]]) -> None:
@@ -294,19 +299,24 @@ def _wheel_bodies(robot: Robot, out: dict[str, list[Visual]]) -> None:
             out[joint.child].extend(_wheel("wheel", np.zeros(3), np.eye(3)[disc[0]], disc[1]))
 
 
-def _urdf_looks(robot: Robot) -> Looks | None:
+def _urdf_looks(robot: UrdfRobot) -> tuple[Looks | None, str]:
     """The URDF's visuals, plus what the URDF lacks: an arm-only URDF's platform box (and its
-    wheels) and the tool point; None when the URDF has no visual geometry."""
+    wheels) and the tool point; None when the URDF has no visual geometry that can be drawn.
+    Also a note naming the mesh files that could not be read ("" when none)."""
     from mmplan.report.urdf_visuals import urdf_body_visuals
     from mmplan.robot.urdf.visuals import added_platform_body
 
     urdf = urdf_body_visuals(robot)
+    note = ""
+    if urdf.skipped:
+        note = f" Not drawn (unreadable mesh files): {'; '.join(urdf.skipped[:5])}"
+        note += f" and {len(urdf.skipped) - 5} more." if len(urdf.skipped) > 5 else "."
     if not urdf.bodies:
-        return None
+        return None, note
     out: dict[str, list[Visual]] = {name: [] for name in robot.tree.bodies}
     for body, pieces in urdf.bodies.items():
         out[body].extend(pieces)
-    box = added_platform_body(robot)  # type: ignore[arg-type]
+    box = added_platform_body(robot)
     size = inertia_box(box) if box is not None else None
     if box is not None and size is not None:
         _platform_visuals(robot, out, (size, np.asarray(box.com, dtype=float)))
@@ -321,7 +331,4 @@ def _urdf_looks(robot: Robot) -> Looks | None:
     if size is not None:
         text += " on its platform box (grey)"
     text += ", tool point (red dot)."
-    if urdf.skipped:
-        text += f" Not drawn (unreadable mesh files): {'; '.join(urdf.skipped[:5])}"
-        text += f" and {len(urdf.skipped) - 5} more." if len(urdf.skipped) > 5 else "."
-    return Looks({name: tuple(v) for name, v in out.items() if v}, text)
+    return Looks({name: tuple(v) for name, v in out.items() if v}, text + note), note

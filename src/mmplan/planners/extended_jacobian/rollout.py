@@ -67,6 +67,10 @@ class RolloutResult:
     info: dict[str, Any] = field(default_factory=dict)
     effort: Array | None = None  # [Tm dq, Tg] (N, 2 n_act) when recorded (time scaling)
     w: Array | None = None  # time rate of a re-timed feedback plan (N,) (time_scaling.retime)
+    # status and message before the torque verdict of ``finish`` when it made the run
+    # infeasible (a re-timing that brings the efforts inside the limits restores them:
+    # time_scaling.scale_path)
+    outcome: tuple[Status, str] | None = None
 
 
 def _keep_start(
@@ -242,13 +246,17 @@ def finish(
                 np.maximum(np.maximum(arr["tau"] - t_hi, t_lo - arr["tau"]), 0.0), axis=1
             )
     broken = np.flatnonzero(over > 1e-9)
+    outcome: tuple[Status, str] | None = None
     if broken.size:
-        status = Status.INFEASIBLE
-        message = (
+        outcome = (status, message)
+        verdict = (
             f"torque limits broken on {broken.size} samples ({broken.size * opt.dt:.3f} s) from "
-            f"t = {arr['t'][broken[0]]:.3f} s, by up to {over.max():.3g} N m (eq. (30) violated); "
-            + message
+            f"t = {arr['t'][broken[0]]:.3f} s, by up to {over.max():.3g} N m (eq. (30) violated)"
         )
+        if status is Status.DIVERGED:  # the cause comes first
+            message += "; " + verdict
+        else:
+            status, message = Status.INFEASIBLE, verdict + "; " + message
     elif infeasible_samples:
         message += (
             f"; safety zone left on {infeasible_samples} samples "
@@ -272,6 +280,7 @@ def finish(
         arr["err"],
         info,
         arr.get("effort"),
+        outcome=outcome,
     )
 
 

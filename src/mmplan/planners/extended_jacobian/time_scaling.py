@@ -127,8 +127,14 @@ def scale_path(
             over = float(np.nanmax(excess))
     info["max_torque_violation"] = over
     status, message = path.status, path.message
-    if path.status is Status.REACHED:
+    if path.outcome is not None and opt.torque_control:
+        # the verdict is the re-timed plan's (over, below): a feedback-mode path that left the
+        # limits where the virtual control could not hold them is kept inside by the scaling
+        status, message = path.outcome
+    if status is Status.REACHED:
         message = f"goal reached at t = {sc.t[-1]:.3f} s (generator path {path.t[-1]:.3f} s)"
+        if path.status is Status.INFEASIBLE:
+            message += "; the virtual control alone left the torque limits, the re-timing kept them"
     if over > 1e-9:
         status = Status.INFEASIBLE
         message = f"torque limits broken by up to {over:.3g} N m; " + message
