@@ -69,3 +69,23 @@ def test_listing_methods_imports_no_planner() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_plans_for_a_robot_with_effort_limits_carry_the_model_efforts() -> None:
+    """A tracker writes no efforts; on a robot with torque limits the template adds the
+    model's efforts of the planned motion (the checker requires and judges them)."""
+    problem = mmplan.load_scenario("diffdrive3-track").build()
+    robot = problem.robot
+    n_act = len(robot.actuators)
+    limited = robot.with_limits(dataclasses.replace(
+        robot.limits, torque_min=np.full(n_act, -50.0), torque_max=np.full(n_act, 50.0)))
+    free = get_planner("pseudoinverse")().plan(problem)
+    assert free.trajectory.tau is None
+    result = get_planner("pseudoinverse")().plan(dataclasses.replace(problem, robot=limited))
+    tau = result.trajectory.tau
+    assert tau is not None and tau.shape == (result.trajectory.samples, n_act)
+    k = result.trajectory.samples // 2
+    tr = result.trajectory
+    np.testing.assert_allclose(tau[k], limited.actuator_efforts(tr.q[k], tr.dq[k], tr.ddq[k]))
+    assert mmplan.check(tr, dataclasses.replace(problem, robot=limited),
+                        status=result.status.value).failures() == []

@@ -318,3 +318,25 @@ def test_indexed_meshes_use_16_bit_indices_when_they_can() -> None:
     position = big["data"]["attributes"]["position"]
     assert position["array"].type == 0x17 and len(position["array"].data) == 70000 * 12
     umsgpack.packb(big)  # packs as meshcat expects
+
+
+def test_a_urdf_whose_meshes_are_all_missing_is_drawn_from_its_model(tmp_path: Path) -> None:
+    _pinocchio()
+    from mmplan.report.visuals import BUILTIN_LEGEND, robot_looks
+    from mmplan.robot.urdf import load_urdf_robot
+
+    urdf = tmp_path / "bare.urdf"
+    urdf.write_text(f"""<robot name="bare">
+  <link name="base">{INERTIAL.format(m=5)}</link>
+  <joint name="pan" type="revolute"><parent link="base"/><child link="arm"/>
+    <origin xyz="0 0 0.3"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+  <link name="arm">{INERTIAL.format(m=1)}
+    <visual><geometry><mesh filename="package://nowhere/arm.dae"/></geometry></visual></link>
+</robot>""")
+    robot = load_urdf_robot(urdf, platform={"kind": "omnidirectional"}, end_effector="arm",
+                            collision=None)
+    looks = robot_looks(robot)
+    assert looks.legend == BUILTIN_LEGEND + " Not drawn (unreadable mesh files): arm: " \
+        "package://nowhere/arm.dae (missing)."
+    assert {p.name for p in looks.bodies["platform"]} == {"body"}

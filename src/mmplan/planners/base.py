@@ -9,6 +9,7 @@ registered with :func:`register`, which writes only :meth:`Planner._solve`.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar, Generic, TypeVar, get_args, get_origin
 
@@ -95,6 +96,7 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
                 f"got {type(task).__name__}",
             )
         solution = self._solve(problem, settings, task, progress)  # type: ignore[arg-type]
+        solution = _with_efforts(solution, problem)
         if progress is not None:
             progress(1.0)
         return PlanResult(
@@ -134,6 +136,26 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
         self, problem: Problem, settings: SettingsT, task: TaskT, progress: Progress
     ) -> Solution:
         """The method itself: plan ``problem`` with checked ``settings`` and ``task``."""
+
+
+def _with_efforts(solution: Solution, problem: Problem) -> Solution:
+    """The solution with the model's actuator efforts of its motion as ``tau`` when the
+    method writes none and the robot has effort limits: a plan for such a robot always
+    carries the efforts it demands (the checker requires them and judges them)."""
+    robot, trajectory = problem.robot, solution.trajectory
+    if trajectory.tau is not None or not robot.limits.has_torque_limits:
+        return solution
+    if trajectory.samples == 0 or not trajectory.is_finite():
+        return solution
+    tau = np.array(
+        [
+            robot.actuator_efforts(q, dq, ddq)
+            for q, dq, ddq in zip(trajectory.q, trajectory.dq, trajectory.ddq, strict=True)
+        ]
+    )
+    return replace(
+        solution, trajectory=replace(trajectory, actuators=robot.actuators, tau=tau)
+    )
 
 
 _REGISTRY: dict[str, type[Planner[Any, Any]]] = {}
