@@ -9,8 +9,8 @@ registered with :func:`register`, which writes only :meth:`Planner._solve`.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 from abc import ABC, abstractmethod
+from dataclasses import replace
 from typing import Any, ClassVar, Generic, TypeVar, get_args, get_origin
 
 import numpy as np
