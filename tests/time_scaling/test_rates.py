@@ -308,3 +308,23 @@ def test_free_start_takes_the_largest_controllable_rate() -> None:
     rest = time_optimal_scaling(s, *rows, w_max=2.0, x_upper=x_upper)
     assert rest.feasible and rest.x[0] == 0.0 and rest.x[-1] == pytest.approx(0.1)
     assert not time_optimal_scaling(s, *rows, w_max=2.0, x_upper=x_upper, x_start=0.8).feasible
+
+
+def test_retime_slows_the_whole_motion_when_the_rounds_run_out(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """With one round of local tightening allowed, the excess left between samples is removed
+    by slowing the whole motion down (speeds / c, accelerations / c^2): the interpolant then
+    holds everywhere. (A random youbot-3r scene once ended 'infeasible' 2e-6 over a wheel's
+    acceleration after the 12 rounds, although the checker saw no violation.)"""
+    import mmplan.time_scaling.retime as retime_module
+
+    monkeypatch.setattr(retime_module, "MAX_ROUNDS", 1)
+    s, q, qs, qss = _planar_path(20)
+    rates = RateLimits(acceleration={"q1": 0.3}, platform_speed=0.8, platform_acceleration=0.4)
+    model = RateModel.build(("x", "y", "theta", "q1"), rates, planar=(0, 1, 2), linear=("x", "y"))
+    out = retime_module.retime_path(s, q, qs, qss, model, w_max=5.0)
+    assert out.rounds == 1 and out.step_ratio <= 1.0
+    t = out.scaling.t
+    assert _dense_interpolant_ratio(model, t, q, out.dq) <= 1.0 + 1e-9
+    assert model.first_violation(t, out.dq, out.ddq, q) is None
