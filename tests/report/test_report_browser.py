@@ -42,7 +42,8 @@ DRIVER_NOTE = re.compile(r"GL Driver Message")
 
 # Test-side scripts added to a copy of the page: the first records every console error or
 # warning and uncaught error from the start; the second finds the robot in meshcat's scene,
-# reads the canvas' pixels, presses Play, reads them again 1.5 s later and moves the slider.
+# reads the canvas' pixels, presses Play, reads them again 1.5 s later, pauses and moves the
+# slider.
 HEAD_PROBE = """<script>
 window.__problems = [];
 ["error", "warn"].forEach(function (kind) {
@@ -105,6 +106,8 @@ window.addEventListener("load", function () {
       out.played = view.animator.time;
       out.moved = view.node(tracked).position.distanceTo(tool);
       out.clock = root.querySelector(".clock").textContent;
+      root.querySelector("button.play").click();  // pause: no more frames to draw
+      out.paused = !view.animator.playing;
       var slider = root.querySelector("input.time");
       slider.value = String(window.__seek || 4);
       slider.dispatchEvent(new Event("input"));
@@ -141,10 +144,10 @@ def _browser() -> str:
     pytest.skip(reason)
 
 
-def _run(browser: str, page: Path, profile: Path, budget_ms: int, *extra: str
-         ) -> subprocess.CompletedProcess[str]:
+def _run(browser: str, page: Path, profile: Path, budget_ms: int, *extra: str,
+         window: str = "1400,2400") -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [browser, *FLAGS, f"--user-data-dir={profile}", "--window-size=1400,2400",
+        [browser, *FLAGS, f"--user-data-dir={profile}", f"--window-size={window}",
          f"--virtual-time-budget={budget_ms}", *extra, page.as_uri()],
         capture_output=True, text=True, timeout=180, check=False,
     )
@@ -166,12 +169,21 @@ def _probe(dom: str) -> dict[str, Any]:
     return result
 
 
+#: Summary folded away: the 3D view at the top of a small window.
+VIEW_FIRST = "<style>#summary{display:none}</style></head>"
+
+
 def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: float,
-              play_ms: int = 4000) -> dict[str, Any]:
+              play_ms: int = 4000, small: bool = False) -> dict[str, Any]:
     """Open the report as it is (silent console, every figure decoded, the viewer ready),
     then with the probe (what it saw, returned), then take the screenshots: still
     (report.png) and ``play_ms`` into the page with Play pressed after 0.2 s (playing.png),
-    which must differ. (Each frame played is drawn in software: many triangles make it slow.)"""
+    which must differ.
+
+    Every frame played is drawn and composited in software, the slower the larger the
+    window: ``small`` plays in a 1000 x 1100 window (the playing screenshot with the summary
+    folded away, so that it shows the 3D view)."""
+    window = "1000,1100" if small else "1400,2400"
     html = report.read_text()
     figures = html.count("<figure ")
     assert figures >= 7
@@ -186,7 +198,7 @@ def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: fl
     setup = f"<script>window.__tracked = {json.dumps(tracked)}; window.__seek = {seek};</script>"
     probed.write_text(html.replace("<head>", "<head>" + HEAD_PROBE + setup, 1)
                       .replace("</body>", TAIL_PROBE))
-    run = _run(browser, probed, tmp_path / "profile1", 8000, "--dump-dom")
+    run = _run(browser, probed, tmp_path / "profile1", 8000, "--dump-dom", window=window)
     assert run.returncode == 0, run.stderr[-2000:]
     assert _console(run.stderr) == [], "console output:\n" + "\n".join(_console(run.stderr))
     seen = _probe(run.stdout)
@@ -194,6 +206,7 @@ def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: fl
     assert seen["ready"] == "yes"
     assert 1.1 < seen["played"] <= 1.55  # about 1.5 s of play at 1x (virtual time)
     assert seen["changed"] > 0.005  # the robot's pixels changed
+    assert seen["paused"]  # Play toggles
     assert float(seen["slider"]) == pytest.approx(seek, abs=0.005)  # on the slider's steps
     assert seen["fetched"] == [] and seen["sockets"] == 0  # nothing loaded, no server
 
@@ -201,9 +214,11 @@ def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: fl
     still = _run(browser, report, tmp_path / "profile2", 3000, f"--screenshot={shot}")
     assert still.returncode == 0 and shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     playing = report.parent / "playing.html"
-    playing.write_text(html.replace("</body>", AUTOPLAY))
+    page = html.replace("</head>", VIEW_FIRST, 1) if small else html
+    playing.write_text(page.replace("</body>", AUTOPLAY))
     moving = tmp_path / "playing.png"
-    later = _run(browser, playing, tmp_path / "profile3", play_ms, f"--screenshot={moving}")
+    later = _run(browser, playing, tmp_path / "profile3", play_ms, f"--screenshot={moving}",
+                 window=window)
     assert later.returncode == 0 and moving.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert moving.read_bytes() != shot.read_bytes()
     return seen
@@ -251,7 +266,8 @@ def test_tiago_report_shows_its_link_meshes_and_plays(tmp_path: Path) -> None:
     folder = make_tiago_plan_dir(tmp_path / "plan")
     report = write_report(folder, max_frames=201)
     assert report.stat().st_size < 15e6
-    seen = _exercise(browser, report, tmp_path, "robot/arm_7_link", 2.0, play_ms=1500)
+    seen = _exercise(browser, report, tmp_path, "robot/arm_7_link", 2.0, play_ms=1500,
+                     small=True)
     arm = {f"arm_{k}_link" for k in range(1, 8)}
     assert {"platform", "wheel_left_link", "wheel_right_link", "torso_lift_link"} | arm \
         <= set(seen["bodies"])

@@ -129,7 +129,7 @@ def visual_elements(robot: UrdfRobot, package_dirs: Sequence[str | Path] | None 
     pin = pinocchio()
     urdf = Path(robot.source.urdf)
     given = package_dirs if package_dirs is not None \
-        else getattr(robot.source, "arguments", {}).get("package_dirs")
+        else robot.source.arguments.get("package_dirs")
     dirs = [Path(d) for d in given] if given is not None else list(urdf.resolve().parents)
     model = _reduced_model(robot)
     root = _root(robot, model)
