@@ -18,7 +18,6 @@ from mmplan.report.meshcat_commands import geometry as g
 from mmplan.report.palette import EE_COLOR, GOAL_COLOR, PLATFORM_PATH_COLOR, obstacle_color
 from mmplan.report.shapes import superellipsoid_mesh, tube_mesh
 from mmplan.report.visuals import pose_from
-from mmplan.scene import Box, Cylinder, Sphere
 from mmplan.task import DrawSegment, ReachPoint, TrackPath
 
 GRID_MINOR, GRID_MAJOR = (0.72, 0.75, 0.79), (0.45, 0.48, 0.53)
@@ -101,18 +100,18 @@ def _metres(value: float) -> str:
 
 
 def obstacle_geometry(obstacle: Any) -> tuple[Any, Array]:
-    """meshcat geometry and world pose of an obstacle in its true shape."""
-    if isinstance(obstacle, Sphere):
-        return g.Sphere(obstacle.radius), pose_from(obstacle.center)
-    if isinstance(obstacle, Box):
-        T = pose_from(obstacle.center)
-        c, s = math.cos(obstacle.yaw), math.sin(obstacle.yaw)
+    """meshcat geometry and world pose of an obstacle in its true shape (its ``solid()``)."""
+    solid = obstacle.solid()
+    T = pose_from(solid.center)
+    if solid.kind == "sphere":
+        return g.Sphere(solid.size[0]), T
+    if solid.kind == "box":
+        c, s = math.cos(solid.yaw), math.sin(solid.yaw)
         T[:2, :2] = [[c, -s], [s, c]]
-        return g.Box(list(obstacle.size)), T
-    if isinstance(obstacle, Cylinder):
-        T = pose_from(obstacle.center)
+        return g.Box(list(solid.size)), T
+    if solid.kind == "cylinder":
         T[:3, :3] = [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]  # three.js: along y
-        return g.Cylinder(obstacle.height, obstacle.radius), T
+        return g.Cylinder(solid.size[1], solid.size[0]), T
     vertices, faces = superellipsoid_mesh(obstacle.superellipsoid())
     return g.TriangularMeshGeometry(vertices, faces), np.eye(4)
 

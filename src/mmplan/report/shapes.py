@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.scene import Box, Cylinder, Sphere
 
 _BISECTIONS = 48
 
@@ -74,14 +73,14 @@ def footprint(obstacle: Any, count: int = 96) -> Array:
     """
     a = np.linspace(0.0, 2.0 * np.pi, count)
     circle = np.column_stack([np.cos(a), np.sin(a)])
-    if isinstance(obstacle, Box):
-        hx, hy, _ = obstacle.half_extents
+    solid = obstacle.solid()
+    centre = np.asarray(solid.center, dtype=float)
+    if solid.kind == "box":
+        hx, hy = 0.5 * solid.size[0], 0.5 * solid.size[1]
         corners = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy], [-hx, -hy]])
-        return _yawed(corners, np.asarray(obstacle.center, dtype=float), obstacle.yaw)
-    if isinstance(obstacle, Cylinder):
-        return np.asarray(obstacle.base_center[:2] + obstacle.radius * circle, dtype=float)
-    if isinstance(obstacle, Sphere):
-        return np.asarray(obstacle.center[:2] + obstacle.radius * circle, dtype=float)
+        return _yawed(corners, centre, solid.yaw)
+    if solid.kind in ("cylinder", "sphere"):
+        return np.asarray(centre[:2] + solid.size[0] * circle, dtype=float)
     return top_outline(obstacle.superellipsoid(), count)
 
 

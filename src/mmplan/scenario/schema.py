@@ -48,70 +48,61 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, Field, TypeAdapter, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    TypeAdapter,
+    ValidationError,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 from mmplan.scenario.limits_schema import LimitsSpec
 from mmplan.scenario.parse import validation_error
 from mmplan.scenario.robot_schema import UrdfRobotSpec
 from mmplan.scenario.schema_types import (
+    MAX_MAGNITUDE,
     Finite,
     NonNegative,
     Positive,
-    PositiveVec3,
     Strict,
     Vec3,
-    exact_length,
     fail,
 )
 
 
 # ------------------------------------------------------------------ obstacles
-class ObstacleSpec(Strict):
-    """Keys shared by every obstacle."""
+class ObstacleSpec(BaseModel):
+    """An obstacle: ``shape`` names a shape registered in :mod:`mmplan.scene`, whose class
+    validates its own keys (one-line errors naming the key). The schema knows no shape: adding
+    a shape touches only its scene/ file. Numbers are bounded like every scenario number."""
 
-    influence: Positive | None = Field(
-        None, description="planner neighbourhood [m] around the (enlarged) surface")
+    model_config = ConfigDict(extra="allow", frozen=True)
 
+    shape: str
 
-class SuperellipsoidSpec(ObstacleSpec):
-    """Barr superellipsoid (docs/conventions.md): centre, semi-axes [m], exponents (e1, e2), yaw."""
+    @model_validator(mode="after")
+    def _valid_for_its_shape(self) -> ObstacleSpec:
+        from mmplan.errors import InputError
+        from mmplan.scene import obstacle_from_dict
 
-    shape: Literal["superellipsoid"]
-    center: Vec3
-    semi_axes: PositiveVec3
-    exponents: Annotated[list[Positive], AfterValidator(exact_length(2, "(e1, e2)"))]
-    yaw: Finite = 0.0
-
-
-class SphereSpec(ObstacleSpec):
-    """Sphere: centre [m], radius [m]."""
-
-    shape: Literal["sphere"]
-    center: Vec3
-    radius: Positive
-
-
-class CylinderSpec(ObstacleSpec):
-    """Vertical cylinder standing on ``base_center`` [m], radius and height [m]."""
-
-    shape: Literal["cylinder"]
-    base_center: Vec3
-    radius: Positive
-    height: Positive
+        data = self.model_dump(exclude_none=True)
+        for key, value in data.items():
+            for k, item in enumerate(value if isinstance(value, list) else [value]):
+                if isinstance(item, int | float) and not isinstance(item, bool):
+                    where = f"{key}[{k}]" if isinstance(value, list) else key
+                    if abs(item) > MAX_MAGNITUDE:
+                        raise fail(where, f"|{item:.6g}| is out of range: magnitudes must be "
+                                          f"<= {MAX_MAGNITUDE:g}")
+        try:
+            obstacle_from_dict(data)
+        except InputError as exc:
+            raise fail(exc.field, exc.problem) from None
+        return self
 
 
-class BoxSpec(ObstacleSpec):
-    """Box: centre [m], edge lengths ``size`` [m], rotation ``yaw`` [rad] about z."""
-
-    shape: Literal["box"]
-    center: Vec3
-    size: PositiveVec3
-    yaw: Finite = 0.0
-
-
-AnyObstacle = Annotated[SuperellipsoidSpec | SphereSpec | CylinderSpec | BoxSpec,
-                        Field(discriminator="shape")]
+AnyObstacle = ObstacleSpec
 
 # ------------------------------------------------------------------ goal
 class LineSpec(Strict):

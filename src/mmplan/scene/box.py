@@ -22,7 +22,7 @@ from mmplan.scene.fields import (
     to_local,
     vector,
 )
-from mmplan.scene.obstacle import Obstacle, excess_distance_sym, register_shape
+from mmplan.scene.obstacle import Obstacle, Solid, excess_distance_sym, register_shape
 from mmplan.scene.smooth_model import SuperellipsoidModel
 
 BOX_EXPONENTS = (0.1, 0.1)  # planner model exponents (e1, e2)
@@ -84,6 +84,10 @@ class Box(Obstacle):
         eps = as_float(eps, "eps")
         size = tuple(s + 2 * eps for s in self.size)
         return Box(self.center, size, self.yaw, self.influence)  # type: ignore[arg-type]
+
+    def solid(self) -> Solid:
+        """A yawed box primitive (full edge lengths)."""
+        return Solid("box", tuple(float(v) for v in self.size), self.center, self.yaw)
 
     def superellipsoid(self) -> SuperellipsoidModel:
         """Model: semi-axes = half extents, exponents (0.1, 0.1), same centre and yaw."""

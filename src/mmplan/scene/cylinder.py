@@ -22,7 +22,13 @@ from mmplan.scene.fields import (
     positive,
     vector,
 )
-from mmplan.scene.obstacle import Obstacle, excess_distance_sym, norm_sym, register_shape
+from mmplan.scene.obstacle import (
+    Obstacle,
+    Solid,
+    excess_distance_sym,
+    norm_sym,
+    register_shape,
+)
 from mmplan.scene.smooth_model import SuperellipsoidModel
 
 CYLINDER_EXPONENTS = (0.1, 1.0)  # (vertical e1, horizontal e2) of the planner model
@@ -86,6 +92,10 @@ class Cylinder(Obstacle):
         eps = as_float(eps, "eps")
         x, y, z = self.base_center
         return Cylinder((x, y, z - eps), self.radius + eps, self.height + 2 * eps, self.influence)
+
+    def solid(self) -> Solid:
+        """A vertical cylinder primitive, centred at mid-height."""
+        return Solid("cylinder", (self.radius, self.height), self.center)
 
     def superellipsoid(self) -> SuperellipsoidModel:
         """Model: semi-axes (r, r, h/2) about the centre, exponents (0.1, 1.0)."""

@@ -22,7 +22,8 @@ from __future__ import annotations
 import dataclasses
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar, TypeVar
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal, TypeVar
 
 import casadi as ca
 from numpy.typing import ArrayLike
@@ -80,6 +81,28 @@ def obstacle_from_dict(data: Mapping[str, Any]) -> Obstacle:
     return cls(**kwargs)
 
 
+@dataclass(frozen=True)
+class Solid:
+    """An obstacle's true shape for drawing (reports, viewers), in the drawing vocabulary.
+
+    ``kind`` is one of the primitives a viewer knows, or ``"model"`` for "draw my smooth
+    superellipsoid model" (:meth:`Obstacle.superellipsoid`), so that adding a shape touches
+    only its own file.
+
+    Attributes:
+        kind: ``"sphere"`` (size = (radius,)), ``"box"`` (size = full edge lengths (3,)),
+            ``"cylinder"`` (size = (radius, height), vertical axis) or ``"model"``.
+        size: As above [m]; empty for ``"model"``.
+        center: Centre of the solid (3,) [m].
+        yaw: Rotation about the vertical axis [rad].
+    """
+
+    kind: Literal["sphere", "box", "cylinder", "model"]
+    size: tuple[float, ...] = ()
+    center: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    yaw: float = 0.0
+
+
 class Obstacle(ABC):
     """A static obstacle. Subclasses are frozen dataclasses validated in ``__post_init__``.
 
@@ -106,6 +129,11 @@ class Obstacle(ABC):
     @abstractmethod
     def superellipsoid(self) -> SuperellipsoidModel:
         """Smooth superellipsoid model of this obstacle for planners."""
+
+    def solid(self) -> Solid:
+        """The true shape for drawing; by default the smooth model (shapes with a primitive
+        of their own say so)."""
+        return Solid("model")
 
     @abstractmethod
     def signed_distance_sym(self, p: ca.SX) -> ca.SX:

@@ -18,7 +18,7 @@ from mmplan.scene.fields import (
     positive,
     vector,
 )
-from mmplan.scene.obstacle import Obstacle, norm_sym, register_shape
+from mmplan.scene.obstacle import Obstacle, Solid, norm_sym, register_shape
 from mmplan.scene.smooth_model import SuperellipsoidModel
 
 
@@ -57,6 +57,10 @@ class Sphere(Obstacle):
     def enlarged(self, eps: float) -> Sphere:
         """Radius grown by ``eps`` [m]."""
         return Sphere(self.center, self.radius + as_float(eps, "eps"), self.influence)
+
+    def solid(self) -> Solid:
+        """A sphere primitive."""
+        return Solid("sphere", (self.radius,), self.center)
 
     def superellipsoid(self) -> SuperellipsoidModel:
         """Exact model: semi-axes (r, r, r), exponents (1, 1)."""
