@@ -4,6 +4,7 @@ so a new shape is one new scene/ file (no shape dispatch in the report)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mmplan.report.scene3d_static import obstacle_geometry
 from mmplan.report.shapes import footprint
@@ -44,7 +45,9 @@ def test_the_report_draws_what_the_solid_says() -> None:
     np.testing.assert_allclose(np.abs(outline[:4] - [1.0, 0.0]).max(axis=0), [0.25, 0.25])
 
 
-def test_a_new_shape_needs_only_its_own_class(tmp_path: object) -> None:
+def test_a_new_shape_needs_only_its_own_class(
+    tmp_path: object, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A shape registered outside mmplan (here a test-only sphere variant) is accepted by the
     scenario schema, planned around and checked: no schema, planner or report edit."""
     from dataclasses import dataclass
@@ -53,7 +56,11 @@ def test_a_new_shape_needs_only_its_own_class(tmp_path: object) -> None:
     import yaml
 
     import mmplan
+    from mmplan.scene import obstacle as obstacle_module
     from mmplan.scene.obstacle import register_shape
+
+    # The shape is registered in a copy of the registry, restored after the test.
+    monkeypatch.setattr(obstacle_module, "_REGISTRY", dict(obstacle_module._REGISTRY))
 
     @register_shape
     @dataclass(frozen=True)
