@@ -15,6 +15,7 @@ virtual-control choice) and the loop handles that sample itself.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,9 +78,13 @@ def run(
     opt: RolloutOptions,
     clock: StallClock,
     rows: SampleLog,
-    switch_possible: bool,
+    wants_switch: Callable[[Array, float], bool] | None,
 ) -> Chunk:
-    """Run one chunk from sample k (virtual control u so far); append accepted samples to rows."""
+    """Run one chunk from sample k (virtual control u so far); append accepted samples to rows.
+
+    ``wants_switch(q, cond(E))``: a partition switch is wanted at the chunk's start (the loop
+    then decides that sample; None: no switch possible).
+    """
     n, a, dt = fns.n, fns.n_act, opt.dt
     if opt.torque_control:
         chunk = ej_feedback.feedback_chunk(fns, opt)
@@ -104,7 +109,8 @@ def run(
     wait = clock.escape_until + (opt.stall_window if clock.escapes else 0.0)
     due = (kk >= clock.window) & (t >= wait)
     prev = np.where(due, older[np.clip(idx, 0, len(older) - 1)], np.inf)
-    event |= due & (prev - err < opt.stall_progress)
+    with np.errstate(invalid="ignore"):
+        event |= due & opt.stalled(prev, err)
     m = int(np.argmax(event)) if event.any() else K
     none = Chunk(0, 0.0, q, dq, u, 1.0)
     if m == 0:
@@ -113,7 +119,7 @@ def run(
     if E0 is None:
         E0 = np.asarray(fns.E(q, p), dtype=float)
     cond = float(np.linalg.cond(E0))
-    switching = switch_possible and cond > opt.switch_cond
+    switching = wants_switch is not None and wants_switch(q, cond)
     if not np.isfinite(cond) or cond > opt.cond_limit or switching:
         return none  # the loop decides at sample k
     states = np.vstack([np.concatenate([q, dq]), X[: m - 1]])

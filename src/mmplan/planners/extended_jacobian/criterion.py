@@ -51,6 +51,7 @@ from mmplan.planners.extended_jacobian.structure import (
 )
 from mmplan.planners.extended_jacobian.wrist import find_wrist, wrist_jacobian
 from mmplan.robot.robot import Robot
+from mmplan.robot.tree import JointKind
 
 
 @dataclass(frozen=True)
@@ -87,12 +88,20 @@ def choose_partition(robot: Robot, q0: Array) -> Partition:
     # (A needs the wheel angles); an omnidirectional platform (h = 0) cannot move the end
     # effector vertically, so x, y, theta and nothing else is singular: one platform column
     # (theta, dependent on x and y in the plane) then goes to F.
+    revolute = tuple(i for i in robot.arm_indices if not _prismatic(robot, i))
     for keep in range(min(robot.n_platform, n_r), -1, -1):
         best: tuple[float, tuple[int, ...]] | None = None
         for platform in itertools.combinations(range(robot.n_platform), keep):
-            for arm in itertools.combinations(robot.arm_indices, n_r - keep):
+            arms = itertools.chain(
+                itertools.combinations(revolute, n_r - keep),
+                (c for c in itertools.combinations(robot.arm_indices, n_r - keep)
+                 if not set(c) <= set(revolute)),
+            )
+            for arm in arms:
                 R = platform + arm
                 cond = float(np.linalg.cond(Jc[:, list(R)]))
+                if not set(arm) <= set(revolute):
+                    cond *= PRISMATIC_IN_R  # only when no revolute choice is near as good
                 if np.isfinite(cond) and (best is None or cond < 0.999 * best[0]):
                     best = (cond, R)
         if best is not None and best[0] <= 1e10:
@@ -103,22 +112,41 @@ def choose_partition(robot: Robot, q0: Array) -> Partition:
     )
 
 
-def repartition(robot: Robot, q: Array, current: Partition) -> Partition | None:
-    """Best-conditioned Jc_R over all column choices at q, if 10x better than ``current``.
+#: A prismatic arm joint enters R only when every choice of revolute joints is this many times
+#: worse conditioned (docs/extended_jacobian.md, Real robots: TIAGo's torso).
+PRISMATIC_IN_R = 100.0
+
+
+def _prismatic(robot: Robot, index: int) -> bool:
+    name = robot.coordinates[index]
+    joint = next(j for j in robot.tree.joints if j.coordinate == name)
+    return joint.kind is JointKind.PRISMATIC
+
+
+def repartition(
+    robot: Robot, q: Array, current: Partition, factor: float = 0.1
+) -> Partition | None:
+    """Best-conditioned Jc_R over all column choices at q, if ``factor`` times better
+    conditioned than ``current`` (10x by default).
 
     Used when cond(E) grows along a run (e.g. youbot-3r with the end effector sideways of
-    the platform centre, where every R holding all platform columns is singular). The zero
-    set of g, and with it the planned optimum, does not depend on the partition (eq. (11)).
+    the platform centre, where every R holding all platform columns is singular; the
+    triggers: :mod:`~mmplan.planners.extended_jacobian.switching`). The zero set of g, and
+    with it the planned optimum, does not depend on the partition (eq. (11)). Prismatic arm
+    joints count :data:`PRISMATIC_IN_R` times worse, as in :func:`choose_partition`.
     """
     Jc = stacked_jacobian(robot, q)
     n_r = Jc.shape[0]
     now = float(np.linalg.cond(Jc[:, list(current.R)]))
+    prismatic = {i for i in robot.arm_indices if _prismatic(robot, i)}
     best: tuple[float, tuple[int, ...]] | None = None
     for R in itertools.combinations(range(robot.n), n_r):
         cond = float(np.linalg.cond(Jc[:, list(R)]))
+        if prismatic & set(R):
+            cond *= PRISMATIC_IN_R
         if np.isfinite(cond) and (best is None or cond < best[0]):
             best = (cond, R)
-    if best is None or not best[0] < 0.1 * now:
+    if best is None or not best[0] < factor * now:
         return None
     return Partition(best[1], tuple(i for i in range(robot.n) if i not in best[1]))
 

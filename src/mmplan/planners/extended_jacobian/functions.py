@@ -8,6 +8,7 @@ samples, one step, and a chunk of steps (through ctypes when compiled).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -33,6 +34,19 @@ class Terms:
     gK: Array  # noqa: N815
 
 
+class LazyFunction:
+    """A CasADi function built on its first call (``build() -> ca.Function``)."""
+
+    def __init__(self, build: Callable[[], ca.Function]) -> None:
+        self._build = build
+        self._fn: ca.Function | None = None
+
+    def __call__(self, *args: Any) -> Any:
+        if self._fn is None:
+            self._fn = self._build()
+        return self._fn(*args)
+
+
 @dataclass
 class GeneratorFunctions:
     """The generator functions and their sizes (see the module docstring).
@@ -46,14 +60,14 @@ class GeneratorFunctions:
     ``chunk_steps`` steps with records in one call.
     """
 
-    step: ca.Function | None  # SX reference step (None when compiled)
+    step: ca.Function | LazyFunction | None  # SX reference step (None when compiled)
     terms: ca.Function
     E: ca.Function
     n: int
     n_act: int
     compiled: bool
     terms_flat: ca.Function
-    step_flat: ca.Function
+    step_flat: ca.Function | LazyFunction
     effort: ca.Function  # [q; dq] -> [Tm dq; Tg] (time scaling)
     chunk: ca.Function | None = None
     chunk_steps: int = CHUNK

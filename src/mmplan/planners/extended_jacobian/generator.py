@@ -47,7 +47,7 @@ from mmplan.planners.extended_jacobian import obstacles as ej_obstacles
 from mmplan.planners.extended_jacobian import step as ej_step
 from mmplan.planners.extended_jacobian.criterion import Criterion
 from mmplan.planners.extended_jacobian.effort import effort_split
-from mmplan.planners.extended_jacobian.functions import GeneratorFunctions
+from mmplan.planners.extended_jacobian.functions import GeneratorFunctions, LazyFunction
 from mmplan.planners.extended_jacobian.obstacles import (
     ObstacleTerm,
     obstacle_functions,
@@ -211,9 +211,16 @@ def build_functions(
                 None, terms, E_fn, n, n_act, True, terms_flat, step_flat, effort, chunk,
                 record=record, native_chunk=cg.NativeFunction(built, "mmplan_ej_chunk_flat"),
             )  # fmt: skip
-    step, step_flat = reference_step(accel, damp, n, p)
+    # Built on first use (0.1-0.3 s): the loop advances with it only outside compiled chunks.
+    reference = functools.cache(functools.partial(reference_step, accel, damp, n, p))
+
+    def reference_part(i: int) -> ca.Function:
+        return reference()[i]
+
+    lazy_step, lazy_flat = (LazyFunction(functools.partial(reference_part, i)) for i in (0, 1))
     record = build_record_step(parts, accel, damp)
     chunk = build_chunk(record)
     return GeneratorFunctions(
-        step, terms, E_fn, n, n_act, False, terms_flat, step_flat, effort, chunk, record=record
-    )
+        lazy_step, terms, E_fn, n, n_act, False, terms_flat, lazy_flat, effort, chunk,
+        record=record,
+    )  # fmt: skip

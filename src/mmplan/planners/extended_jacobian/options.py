@@ -8,7 +8,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from mmplan.arrays import Array
+import numpy as np
+
+from mmplan.arrays import Array, BoolArray
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
 from mmplan.robot.robot import Robot
@@ -20,7 +22,10 @@ class RolloutOptions:
     """Numerical options of one rollout, derived from the planner settings by
     :meth:`from_settings` (the one place; no setting is restated here with a default).
 
-    ``cond_every``, ``switch_cond`` and ``max_switches`` are internal constants, not settings.
+    ``stall_fraction``, ``cond_every``, ``switch_cond`` and ``max_switches`` are internal
+    constants, not settings. A window without progress is one whose error fell by less than
+    ``stall_progress`` and by less than ``stall_fraction`` of its value at the window's start
+    (:meth:`stalled`): a run converging slowly (obstacle damping near the goal) is no stall.
     """
 
     dt: float
@@ -44,9 +49,24 @@ class RolloutOptions:
     cond_limit: float
     rates: RateModel | None = None
     coordinates: tuple[str, ...] = ()
+    stall_fraction: float = 0.1
     cond_every: int = 50
     switch_cond: float = 1e5
     max_switches: int = 4
+
+    def stalled(self, before: Array | float, now: Array | float) -> BoolArray:
+        """No progress from error ``before`` to ``now`` over one window (class docstring),
+        elementwise (a 0-d array for scalars).
+
+        Measured on TIAGo (random set): with the absolute test alone, runs 3.6 mm from the
+        goal, converging under the obstacle damping, counted as stalled and were thrown
+        0.7 m off by escape pushes, three times in 40 s (timeout at 2 mm).
+        """
+        before = np.asarray(before)
+        progress = before - np.asarray(now)
+        small = progress < self.stall_fraction * before
+        out: BoolArray = (progress < self.stall_progress) & small
+        return out
 
     @classmethod
     def from_settings(

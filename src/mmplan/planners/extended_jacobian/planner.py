@@ -27,7 +27,6 @@ The modules this planner runs, in data-flow order, are listed in
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,7 +40,6 @@ from mmplan.planners.extended_jacobian.criterion import (
     Partition,
     build_criterion,
     choose_partition,
-    repartition,
 )
 from mmplan.planners.extended_jacobian.generator import (
     GeneratorFunctions,
@@ -54,6 +52,7 @@ from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.posture import heading_reference, posture_weights
 from mmplan.planners.extended_jacobian.rollout import rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
+from mmplan.planners.extended_jacobian.switching import PartitionSwitch
 from mmplan.planners.extended_jacobian.time_scaling import retime, rollout_time_scaled
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint
@@ -72,8 +71,7 @@ class _Prepared:
     tolerance: float
     build_time: float
     time_scaling: bool
-    switch: Callable[[NDArray[np.float64]], GeneratorFunctions | None]
-    partitions: list[Partition]
+    switch: PartitionSwitch
 
 
 @register
@@ -119,7 +117,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             u=res.u,
             extra={} if res.w is None else {"w": res.w},
         )
-        r_names, f_names = prep.partitions[-1].names(robot)
+        r_names, f_names = prep.switch.partitions[-1].names(robot)
         info = dict(res.info)
         info.update(
             {
@@ -189,14 +187,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         time_scaling = (options.torque_control and mode == "time") or (
             options.rates is not None and not options.torque_control
         )
-        partitions = [partition]
-
-        def switch(q: NDArray[np.float64]) -> GeneratorFunctions | None:
+        def build(other: Partition) -> GeneratorFunctions:
             # A partition switch mid-run uses the SX virtual machine (no 30-60 s C build).
-            other = repartition(robot, q, partitions[-1])
-            if other is None:
-                return None
-            partitions.append(other)
             crit = build_criterion(
                 robot, other, settings.penalty_weight, posture=np.asarray(posture), heading=heading
             )
@@ -204,6 +196,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
                 robot, crit, obstacles, settings.varrho, settings.arm_gradient_weight
             )
 
+        switch = PartitionSwitch(robot, build, [partition], options.switch_cond)
         return _Prepared(
             q0,
             p_f,
@@ -214,5 +207,4 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             build_time,
             time_scaling,
             switch,
-            partitions,
         )

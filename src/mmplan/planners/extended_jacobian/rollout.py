@@ -20,7 +20,8 @@ cut too and the robot can coast into it; ``time`` mode
 (:mod:`~mmplan.planners.extended_jacobian.time_scaling`) avoids this.
 
 Escape from local minima ([PajakPajak] s.3.2 cites it): when the error has not decreased by
-``stall_progress`` over ``stall_window`` while an obstacle acts (K > 0), a push along the obstacle
+``stall_progress`` (nor by a tenth of itself, :meth:`RolloutOptions.stalled`) over
+``stall_window`` while an obstacle acts (K > 0), a push along the obstacle
 boundary (perpendicular to dK/dq in the platform plane, on the goal's side on odd attempts and the
 other side on even ones, with a damped turn of the platform towards it) is applied for
 ``escape_time``; the next verdict waits a full window. After ``max_escapes`` attempts, or without an
@@ -34,7 +35,6 @@ compiled call of ``cond_every`` steps each (:mod:`mmplan.planners.extended_jacob
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,6 +46,7 @@ from mmplan.planners.extended_jacobian import divergence
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
+from mmplan.planners.extended_jacobian.switching import PartitionSwitch
 from mmplan.planners.extended_jacobian.torque.decision import decide
 from mmplan.trajectory import Status
 
@@ -103,13 +104,15 @@ def rollout(
     q0: Array,
     p_f: Array,
     opt: RolloutOptions,
-    switch: Callable[[Array], GeneratorFunctions | None] | None = None,
+    switch: PartitionSwitch | None = None,
     fast: bool = True,
 ) -> RolloutResult:
     """Run the generator from rest at ``q0`` towards ``p_f`` until reached or stopped.
 
-    When cond(E) exceeds ``opt.switch_cond``, ``switch(q)`` may return the generator of a
-    better-conditioned column partition (same optimum, eq. (11)); the run continues with it.
+    When ``switch`` wants one (cond(E) above ``opt.switch_cond``, or cond(Jc_R) grown:
+    :mod:`~mmplan.planners.extended_jacobian.switching`), ``switch(q, factor)`` may return
+    the generator of a better-conditioned column partition (same optimum, eq. (11)); the run
+    continues with it.
     ``fast=False`` runs every sample in the loop (the reference; same samples to rounding).
 
     Args:
@@ -122,6 +125,8 @@ def rollout(
     n, dt = fns.n, opt.dt
     p = np.concatenate([p_f, opt.gains])
     q, dq = np.array(q0, dtype=float), np.zeros(n)
+    if switch is not None:
+        switch.start(q)
     u = 0.0 if opt.torque_control else 1.0
     status, message = Status.TIMEOUT, f"t_max = {opt.t_max} s reached before the goal"
     steps = int(np.ceil(opt.t_max / dt))
@@ -137,7 +142,8 @@ def rollout(
         if fast and ej_fastpath.usable(fns, opt, k, steps, escape_dir is None or t >= escape_until):
             clock = ej_fastpath.StallClock(window, escapes, escape_until)
             can_switch = switch is not None and switches < opt.max_switches
-            c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, can_switch)
+            wants = switch.wants if switch is not None and can_switch else None
+            c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, wants)
             if c.m:
                 max_cond, q, dq, u, k = max(max_cond, c.cond), c.q, c.dq, c.u, k + c.m - 1
                 s_min, chunked = min(s_min, c.s_min), chunked + c.m
@@ -151,8 +157,11 @@ def rollout(
             break
         if k % opt.cond_every == 0:
             cond = float(np.linalg.cond(np.asarray(fns.E(q, p), dtype=float)))
-            if cond > opt.switch_cond and switch is not None and switches < opt.max_switches:
-                other = switch(q)
+            factor = None
+            if switch is not None and switches < opt.max_switches:
+                factor = switch.wanted(q, cond)
+            if factor is not None and switch is not None:
+                other = switch(q, factor)
                 if other is not None:
                     fns, switches = other, switches + 1
                     out = fns.evaluate(q, dq, p)
@@ -184,21 +193,20 @@ def rollout(
             status, message = Status.REACHED, f"goal reached at t = {t:.3f} s"
             break
         # After an escape the generator gets a full window before the next stall verdict.
-        if k >= window and t >= escape_until + (opt.stall_window if escapes else 0.0):
-            progress = float(rows.error(k - window, k - window + 1)[0]) - err
-            if progress < opt.stall_progress:
-                if opt.escape and S > 0.0 and escapes < opt.max_escapes:
-                    escape_dir = _escape_direction(out.gK, q, p_f)
-                    if escape_dir is not None and escapes % 2 == 1:
-                        escape_dir = -escape_dir  # every other attempt goes the other way round
-                    escape_until, escapes = t + opt.escape_time, escapes + 1
-                    escape_left = opt.max_escapes - escapes
-                else:
-                    status = Status.STALLED
-                    message = (
-                        f"no progress over {opt.stall_window} s at t = {t:.3f} s, error {err:.4g} m"
-                    )
-                    break
+        due = k >= window and t >= escape_until + (opt.stall_window if escapes else 0.0)
+        if due and opt.stalled(float(rows.error(k - window, k - window + 1)[0]), err):
+            if opt.escape and S > 0.0 and escapes < opt.max_escapes:
+                escape_dir = _escape_direction(out.gK, q, p_f)
+                if escape_dir is not None and escapes % 2 == 1:
+                    escape_dir = -escape_dir  # every other attempt goes the other way round
+                escape_until, escapes = t + opt.escape_time, escapes + 1
+                escape_left = opt.max_escapes - escapes
+            else:
+                status = Status.STALLED
+                message = (
+                    f"no progress over {opt.stall_window} s at t = {t:.3f} s, error {err:.4g} m"
+                )
+                break
         if k == steps:
             break
         q, dq = fns.advance(q, dq, u, s, ext, p, dt)

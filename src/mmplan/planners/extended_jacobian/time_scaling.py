@@ -32,7 +32,6 @@ binds keeps the generator's timing exactly.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -41,6 +40,7 @@ from numpy.typing import NDArray
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
+from mmplan.planners.extended_jacobian.switching import PartitionSwitch
 from mmplan.time_scaling.retime import retime_path
 from mmplan.trajectory import Status
 
@@ -54,7 +54,7 @@ def rollout_time_scaled(
     q0: Array,
     p_f: Array,
     opt: RolloutOptions,
-    switch: Callable[[Array], GeneratorFunctions | None] | None = None,
+    switch: PartitionSwitch | None = None,
 ) -> RolloutResult:
     """Unconstrained generator path, then its time-optimal scaling under the torque zone (with
     torque control) and the rate limits (when the robot has them), from rest (w_0 = 0).
