@@ -16,13 +16,17 @@ from mmplan.scene.obstacle import Obstacle, obstacle_from_dict
 
 @dataclass(frozen=True)
 class Scene:
-    """An ordered, immutable collection of obstacles.
+    """An ordered, immutable collection of obstacles, and the floor.
 
     Attributes:
         obstacles: The obstacles, in scenario order.
+        ground: Height h [m] of the floor plane z = h, an obstacle for every collision sphere
+            whose height depends on the configuration (:mod:`mmplan.robot.ground`); None: no
+            floor.
     """
 
     obstacles: tuple[Obstacle, ...] = ()
+    ground: float | None = 0.0
 
     def __post_init__(self) -> None:
         obstacles = tuple(self.obstacles)
@@ -30,6 +34,16 @@ class Scene:
             if not isinstance(obstacle, Obstacle):
                 raise InputError(f"obstacles[{i}]", f"expected an Obstacle, got {obstacle!r}")
         object.__setattr__(self, "obstacles", obstacles)
+        if self.ground is not None:
+            if isinstance(self.ground, bool) or not isinstance(self.ground, (int, float)):
+                raise InputError(
+                    "ground", f"expected a height in m or None, got {type(self.ground).__name__}"
+                )
+            if not np.isfinite(self.ground) or abs(self.ground) > 100.0:
+                raise InputError(
+                    "ground", f"height must be finite and within 100 m, got {self.ground:.6g}"
+                )
+            object.__setattr__(self, "ground", float(self.ground))
 
     def __len__(self) -> int:
         return len(self.obstacles)
@@ -68,7 +82,7 @@ class Scene:
 
     def enlarged(self, eps: float) -> Scene:
         """Every obstacle grown by ``eps`` [m] (see each shape's ``enlarged``)."""
-        return Scene(tuple(o.enlarged(eps) for o in self.obstacles))
+        return Scene(tuple(o.enlarged(eps) for o in self.obstacles), self.ground)
 
     @classmethod
     def from_dicts(cls, items: Iterable[Mapping[str, Any]]) -> Scene:
