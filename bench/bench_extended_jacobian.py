@@ -203,13 +203,14 @@ def _time(fn: object, calls: int) -> float:
     return (time.perf_counter() - start) / calls * 1e6
 
 
-def time_steps() -> None:
+def time_steps(name: str = "youbot3r-obstacles-torque") -> None:
     """Part 2: per-step microseconds, compiled C vs CasADi's SX virtual machine."""
-    problem = load_scenario("youbot3r-obstacles-torque").build()
+    problem = load_scenario(name).build()
     settings = problem.settings
     assert isinstance(settings, ExtendedJacobianSettings) and isinstance(problem.task, ReachPoint)
     robot, q = problem.robot, problem.start
-    crit = build_criterion(robot, choose_partition(robot, q), settings.penalty_weight)
+    partition = choose_partition(robot, q)
+    crit = build_criterion(robot, partition, settings.penalty_weight, parametric=True)
     obstacles = [
         ObstacleTerm(
             ob.enlarged(settings.obstacle_margin).superellipsoid(),
@@ -217,9 +218,9 @@ def time_steps() -> None:
         )
         for ob in problem.scene.obstacles
     ]
-    p = np.concatenate(
-        [problem.task.position, [settings.lambda_p, settings.lambda_v, settings.lambda_ii]]
-    )
+    gains = (settings.lambda_p, settings.lambda_v, settings.lambda_ii)
+    pairs = [(ob.model, ob.influence) for ob in obstacles]
+    floor = None if problem.scene.ground is None else (problem.scene.ground, settings.influence)
     rng = np.random.default_rng(0)
     dq = robot.null_basis(q) @ rng.normal(size=robot.n - robot.h) * 0.1
     ext = np.zeros(robot.n)
@@ -231,9 +232,12 @@ def time_steps() -> None:
         fns = build_functions(
             robot, crit, obstacles, settings.varrho, settings.arm_gradient_weight, codegen=codegen
         )
-        gen = OnlineGenerator(fns, np.asarray(problem.task.position), options)
+        p = fns.layout.pack(problem.task.position, gains, pairs, floor, partition)
+        gen = OnlineGenerator(fns, p, options)
 
-        def numpy_online(fns: object = fns) -> tuple[np.ndarray, np.ndarray, float]:
+        def numpy_online(
+            fns: object = fns, p: np.ndarray = p
+        ) -> tuple[np.ndarray, np.ndarray, float]:
             out = fns.evaluate(q, dq, p)  # type: ignore[attr-defined]
             d = decide(out, dq, 0.5, False, ext, options)
             return d.ddq, d.tau, d.u
@@ -245,16 +249,19 @@ def time_steps() -> None:
         calls = 200 if not codegen else 2000
         chunk = fns.chunk_steps
         rows[label] = (
-            _time(lambda fns=fns: fns.evaluate(q, dq, p), calls),
-            _time(lambda fns=fns: fns.advance(q, dq, 1.0, 1.0, ext, p, 0.002), calls // 2),
-            _time(lambda fns=fns: fns.run_chunk(q, dq, 1.0, 1.0, ext, p, 0.002), calls // 20)
+            _time(lambda fns=fns, p=p: fns.evaluate(q, dq, p), calls),
+            _time(lambda fns=fns, p=p: fns.advance(q, dq, 1.0, 1.0, ext, p, 0.002), calls // 2),
+            _time(
+                lambda fns=fns, p=p: fns.run_chunk(q, dq, 1.0, 1.0, ext, p, 0.002), calls // 20
+            )
             / chunk,
             _time(numpy_online, calls),
             _time(one_call, calls),
         )
         assert gen.fallbacks == 0
     print(
-        "\nper call [us] (youbot-3r, 3 obstacles)   terms   RK4 step  chunk/step"
+        f"\nper call [us] ({name}, {len(obstacles)} obstacles + floor)\n"
+        "                                      terms   RK4 step  chunk/step"
         "  online: terms+NumPy  one call (ddq, tau, u)"
     )
     for label, r in rows.items():
@@ -362,3 +369,4 @@ if __name__ == "__main__":
         dt_study("youbot3r-obstacles-torque-unlimited")
         dt_study("youbot3r-obstacles-torque")
         time_steps()
+        time_steps("youbot4r-reach-smooth-unlimited")

@@ -25,6 +25,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from mmplan.errors import InputError, require
 from mmplan.robot.robot import Robot
 from mmplan.scene.scene import Scene
 from mmplan.task import Task
@@ -115,10 +116,44 @@ def _leaf_types(annotation: Any) -> set[Any]:
 
 @dataclass(frozen=True)
 class Problem:
-    """A fully resolved planning problem: robot (with limits), scene, task, start, settings."""
+    """A fully resolved planning problem: robot (with limits), scene, task, start, settings.
+
+    Checked on construction: each part of its type (the scene any object with ``obstacles``,
+    a :class:`Scene` or a stand-in), ``start`` n finite numbers (stored as a float array).
+
+    Raises:
+        InputError: a part of another type, or a bad start (the field names it).
+    """
 
     robot: Robot
     scene: Scene
     task: Task
     start: NDArray[np.float64]
     settings: PlannerSettings
+
+    def __post_init__(self) -> None:
+        require(self.robot, Robot, "robot", "a Robot (mmplan.get_robot(name))")
+        if not hasattr(self.scene, "obstacles"):
+            raise InputError("scene", f"expected a Scene, got {type(self.scene).__name__}")
+        require(self.task, Task, "task", "a Task (e.g. mmplan.ReachPoint)")
+        require(self.settings, PlannerSettings, "settings",
+                "planner settings (a PlannerSettings model)")
+        object.__setattr__(self, "start", start_array(self.start, self.robot))
+
+
+def start_array(start: object, robot: Robot) -> NDArray[np.float64]:
+    """``start`` as a float array of the robot's n coordinates (a copy); InputError otherwise."""
+    try:
+        raw = np.asarray(start)
+    except (TypeError, ValueError):  # ragged nesting
+        raw = np.asarray(None)
+    if raw.dtype.kind not in "iuf":  # no strings, booleans, objects, None
+        raise InputError("start", f"expected {robot.n} numbers, got {type(start).__name__}"
+                         + (f" of {raw.dtype.name}" if raw.ndim else ""))
+    values = np.array(raw, dtype=float)
+    if values.shape != (robot.n,):
+        raise InputError("start", f"expected {robot.n} values {list(robot.coordinates)}, "
+                         f"got shape {values.shape}")
+    if not np.isfinite(values).all():
+        raise InputError("start", f"values must be finite, got {values.tolist()}")
+    return values

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import ClassVar
@@ -9,6 +10,7 @@ from typing import ClassVar
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.errors import InputError
 
 
 class Task(ABC):
@@ -31,8 +33,31 @@ class ReachPoint(Task):
     position: tuple[float, float, float]
     tolerance: float = 1e-3
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", _point(self.position, "goal.position"))
+        object.__setattr__(self, "tolerance", _positive(self.tolerance, "goal.tolerance"))
+
     def errors(self, t: Array, ee: Array) -> Array:
         return np.asarray(np.linalg.norm(ee - np.asarray(self.position), axis=1), dtype=float)
+
+
+def _point(value: object, field: str) -> tuple[float, float, float]:
+    """``value`` as 3 finite floats (a point [m]); InputError otherwise."""
+    raw = np.asarray(value) if not isinstance(value, str | bytes) else np.asarray(None)
+    if raw.dtype.kind not in "iuf" or raw.shape != (3,) or not np.isfinite(raw).all():
+        raise InputError(field, f"expected 3 finite numbers [m], got {type(value).__name__}"
+                         + (f" of shape {raw.shape}" if raw.dtype.kind in "iuf" else ""))
+    x, y, z = (float(v) for v in raw)
+    return (x, y, z)
+
+
+def _positive(value: object, field: str) -> float:
+    """``value`` as a finite float > 0; InputError otherwise."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        raise InputError(field, f"expected a number > 0, got {type(value).__name__}")
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(field, f"expected a finite number > 0, got {value!r}")
+    return float(value)
 
 
 def completion_time(t: Array, errors: Array, tolerance: float) -> float | None:

@@ -10,17 +10,36 @@ from typing import Any
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.errors import ModelError
+from mmplan.errors import InputError, ModelError, require
 
 
 class Status(StrEnum):
-    """How a planning run ended (summary.json ``status``)."""
+    """How a planning run ended (summary.json ``status``).
+
+    ``Status("reached")`` is ``Status.REACHED``; any other value than the exact string of a
+    member raises :class:`~mmplan.errors.InputError` (not ``ValueError``).
+    """
 
     REACHED = "reached"
     STALLED = "stalled"
     DIVERGED = "diverged"
     INFEASIBLE = "infeasible"
     TIMEOUT = "timeout"
+
+    @classmethod
+    def _missing_(cls, value: object) -> Status:
+        plain = value is None or isinstance(value, str | int | float)
+        shown = repr(value)[:60] if plain else type(value).__name__
+        raise InputError(
+            "status", f"{shown} is not a status; one of {', '.join(s.value for s in cls)}"
+        )
+
+
+def _check_result(result: Solution | PlanResult) -> None:
+    """A result's status as a :class:`Status` (its exact string value accepted), its
+    trajectory a :class:`Trajectory`; InputError otherwise."""
+    object.__setattr__(result, "status", Status(result.status))
+    require(result.trajectory, Trajectory, "trajectory", "a Trajectory")
 
 
 @dataclass(frozen=True)
@@ -131,6 +150,9 @@ class Solution:
     history: Mapping[str, Array] = field(default_factory=dict)
     artifacts: Mapping[str, Array] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        _check_result(self)
+
 
 @dataclass(frozen=True)
 class PlanResult:
@@ -157,6 +179,10 @@ class PlanResult:
     info: Mapping[str, Any] = field(default_factory=dict)
     history: Mapping[str, Array] = field(default_factory=dict)
     artifacts: Mapping[str, Array] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        _check_result(self)
+        require(self.planner, str, "planner", "the method name (str)")
 
     @property
     def reached(self) -> bool:

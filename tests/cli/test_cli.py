@@ -17,7 +17,7 @@ import yaml
 from click.testing import CliRunner, Result
 
 import mmplan
-from mmplan.cli.main import _Bar, main
+from mmplan.cli.main import main
 from mmplan.planners.base import Planner, register
 from mmplan.problem import PlannerSettings, Problem, Progress
 from mmplan.task import Task
@@ -299,21 +299,6 @@ def test_help_texts(command: list[str]) -> None:
 def test_usage_error_exits_2() -> None:
     result = run("plan", "x.yaml")  # --out missing
     assert result.exit_code == 2 and "Missing option '--out'" in result.output
-
-
-def test_progress_bar_appears_only_after_delay(monkeypatch: pytest.MonkeyPatch) -> None:
-    bar = _Bar(enabled=True)
-    bar(0.1)
-    assert bar.progress is None  # planning has run for less than a second
-    bar.start -= 2.0
-    bar(0.5)
-    assert bar.progress is not None
-    assert bar.progress.tasks[0].completed == 0.5
-    bar.close()
-    quiet = _Bar(enabled=False)
-    quiet.start -= 2.0
-    quiet(0.5)
-    assert quiet.progress is None
 
 
 def test_installed_entry_point_runs() -> None:

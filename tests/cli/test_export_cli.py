@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +12,7 @@ import yaml
 from click.testing import CliRunner, Result
 
 import mmplan
-from mmplan.cli.main import _Steps, main
+from mmplan.cli.main import main
 from tests.cli.test_cli import BASE
 from tests.eta_planner import METHOD
 
@@ -152,29 +151,3 @@ def test_help_names_exit_codes_and_topics() -> None:
     assert result.exit_code == 0 and "Exit code 0" in result.stdout
     for word in ("/joint_trajectory", "/cmd_vel", "/base_path", "mmplan export runs/youbot"):
         assert word in result.stdout
-
-
-def test_step_line_appears_only_after_a_second() -> None:
-    quick = _Steps(enabled=True, delay=60.0)
-    quick("reading the plan")
-    quick.close()
-    assert quick.shown == []
-    slow = _Steps(enabled=True, delay=0.0)
-    slow("writing the ROS 2 bag")
-    for _ in range(200):
-        if slow.shown:
-            break
-        time.sleep(0.01)
-    slow.close()
-    assert slow.shown == ["writing the ROS 2 bag"]
-    stale = _Steps(enabled=True, delay=60.0)  # a timer that fires as its step ends
-    stale("reading the plan")
-    generation = stale._generation
-    stale.close()
-    stale._show("reading the plan", generation)
-    assert stale.shown == [] and stale._status is None
-    off = _Steps(enabled=False, delay=0.0)
-    off("x")
-    time.sleep(0.05)
-    off.close()
-    assert off.shown == []

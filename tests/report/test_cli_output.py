@@ -71,6 +71,18 @@ def test_check_prints_each_quantity_with_its_threshold(
         assert "info" in rows[label], label  # reported, not a pass criterion
 
 
+def test_check_prints_the_self_clearance(capsys: pytest.CaptureFixture[str]) -> None:
+    """A robot with self-collision pairs: the smallest distance, where, and its threshold;
+    without pairs the row says so."""
+    output.print_check(_report(min_self_clearance_m=0.0123,
+                               self_clearance_where="arm_7_link vs platform at t = 2.5 s"))
+    row = _lines(capsys)["min self-clearance"]
+    assert row.startswith("0.0123 m (arm_7_link vs platform at t = 2.5 s)"), row
+    assert "must be >= 0 m" in row
+    output.print_check(_report())
+    assert "no self-collision pairs" in _lines(capsys)["min self-clearance"]
+
+
 def test_plan_names_reach_time_and_trajectory_end(
         capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     t = np.linspace(0.0, 14.5, 30)

@@ -163,19 +163,20 @@ def test_segment_plans_speak_of_the_path_parameter(tmp_path: Path) -> None:
     assert dict((k, v) for _, v, k in view.facts)["fact.t_end"] == "s = 8"
 
 
-def test_report_without_optional_files_and_obstacles(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    from mmplan.report import render_report_cli
+def test_report_without_optional_files_and_obstacles(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from mmplan.cli.main import main
 
     folder = make_plan_dir(tmp_path / "plain", obstacles=[], samples=41)
     (folder / "history.csv").unlink()
     (folder / "artifacts.npz").unlink()
     (folder / "figures").mkdir()
     (folder / "figures" / "clearance.png").write_bytes(b"stale")  # from an earlier report
-    out = render_report_cli(folder)
-    assert out == folder / "report.html"
-    assert capsys.readouterr().out.startswith(f"wrote {out} (")
+    result = CliRunner().invoke(main, ["report", str(folder)])
+    out = folder / "report.html"
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith(f"wrote {out} (")
     pngs = {p.stem for p in (folder / "figures").glob("*.png")}
     assert pngs == {
         "top_view",

@@ -281,3 +281,36 @@ def test_tiago_report_shows_its_link_meshes_and_plays(tmp_path: Path) -> None:
     assert seen["moved"] > 0.3  # the arm's last link moved [m] (the platform drives)
     assert seen["obstacles"] == ["1_box", "2_cylinder"]
     assert seen["clock"] == f"t = {seen['played']:.2f} s of 3.98 s"
+
+
+@pytest.mark.parametrize("name", ["tiago-wall-segment"])
+def test_builtin_tiago_reports_show_the_robot(name: str, tmp_path: Path) -> None:
+    """Built-in TIAGo scenarios given as a URDF entry (the pen robot) planned from the CLI
+    (``mmplan plan NAME --out D --report``; a tracking plan and a manipulability-area plan,
+    whose t is the segment parameter): the report's 3D view holds TIAGo's bodies drawn with
+    its URDF link meshes, with a silent console. (tiago-table, robot ``tiago``, passes the
+    same probe, and so does tiago-wall-line (the pen robot, a tracking plan); left out for CI
+    time: each adds 30-45 s.)"""
+    _tiago_data()
+    browser = _browser()
+    folder = tmp_path / "plan"
+    run = subprocess.run(["mmplan", "plan", name, "--out", str(folder), "--report"],
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    report = folder / "report.html"
+    html = report.read_text()
+    probed = folder / "probed.html"
+    setup = "<script>window.__tracked = \"robot/arm_7_link\"; window.__seek = 0.5;</script>"
+    probed.write_text(html.replace("<head>", "<head>" + HEAD_PROBE + setup, 1)
+                      .replace("</body>", TAIL_PROBE))
+    seen_run = _run(browser, probed, tmp_path / "profile", 8000, "--dump-dom",
+                    window="1000,1100")
+    assert seen_run.returncode == 0, seen_run.stderr[-2000:]
+    assert _console(seen_run.stderr) == [], "\n".join(_console(seen_run.stderr))
+    seen = _probe(seen_run.stdout)
+    assert seen["problems"] == [] and seen["ready"] == "yes"
+    arm = {f"arm_{k}_link" for k in range(1, 8)}
+    assert {"platform", "wheel_left_link", "wheel_right_link"} | arm <= set(seen["bodies"])
+    assert {"hand_palm_link"} <= set(seen["pieces"]["arm_7_link"])
+    assert seen["meshes"] >= 60 and seen["triangles"] >= 100_000  # URDF meshes, not boxes
+    assert seen["drawn"] > 0.02

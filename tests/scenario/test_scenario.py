@@ -219,7 +219,7 @@ def test_builtin_scenarios_are_valid_files() -> None:
         assert path.suffix == ".yaml" and path.stem == name
         robot, method = scenario_header(path)
         assert robot in {"youbot-3r", "youbot-4r", "car-rtr", "diffdrive-3dof", "omni-3dof",
-                         "base-6dof", "tiago", "ur5-omni"}
+                         "base-6dof", "tiago", "ur5-omni", "tiago-pen"}
         if method in available:
             sc = load_scenario(name)
             assert sc.name == name and sc.method == method

@@ -13,7 +13,7 @@ from mmplan.verify.consistency import TAU_MODEL_TOL
 from tests.eta_planner import METHOD
 
 CONTRACT_KEYS = ["status", "planner", "robot", "duration_s", "duration_1cm_s", "duration_1mm_s",
-             "final_error_m", "min_clearance_m", "min_self_clearance_m",
+             "final_error_m", "min_clearance_m", "min_self_clearance_m", "min_floor_clearance_m",
              "max_joint_limit_violation",
              "max_torque_violation", "max_pfaffian_residual", "manipulability_start",
              "manipulability_end", "manipulability_min", "compute_time_s", "samples",

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 from click.testing import CliRunner
 
 import mmplan
@@ -147,6 +148,38 @@ def start_elsewhere(p: Plan, key: str) -> None:
     p[f"ddq.{name}"] = p[f"ddq.{name}"] - d / 2 * (np.pi / T) ** 2 * np.cos(np.pi * t / T)
 
 
+#: Arm joints and the values they reach mid-plan to take an arm sphere through the floor z = 0
+#: (youbot-3r q2 = 1: link3 0.22 m below; diffdrive-3dof elbow down: 0.07 m; car-rtr's
+#: vertical slider x2 = -0.5: the forearm 0.5 m below).
+FLOOR_DIP = {"ej": {"q2": 1.0}, "tracker": {"theta2": 1.2, "theta3": 0.3},
+             "endogenous": {"x2": -0.5}}
+
+
+def lower_through_floor(p: Plan, key: str) -> None:
+    """Raised-cosine bumps over the middle third of the plan that bring the joints of
+    FLOOR_DIP[key] to their values at its centre (q, dq, ddq consistent, joint limits kept)."""
+    t = p["t"]
+    t1, t2 = t[0] + (t[-1] - t[0]) / 3, t[0] + 2 * (t[-1] - t[0]) / 3
+    w, inside = 2 * np.pi / (t2 - t1), (t >= t1) & (t <= t2)
+    s = np.where(inside, t - t1, 0.0)
+    mid = int(np.argmin(np.abs(t - (t1 + t2) / 2)))
+    for name, target in FLOOR_DIP[key].items():
+        A = (target - p[f"q.{name}"][mid]) / (0.5 * (1 - np.cos(w * (t[mid] - t1))))
+        p[f"q.{name}"] = p[f"q.{name}"] + np.where(inside, A / 2 * (1 - np.cos(w * s)), 0.0)
+        p[f"dq.{name}"] = p[f"dq.{name}"] + np.where(inside, A / 2 * w * np.sin(w * s), 0.0)
+        p[f"ddq.{name}"] = p[f"ddq.{name}"] + np.where(inside, A / 2 * w**2 * np.cos(w * s),
+                                                       0.0)
+
+
+def set_ground(p: Plan, ground: float | None) -> None:
+    """The plan's scenario.yaml with the floor at ``ground`` (None: no floor)."""
+    path = p.folder / "scenario.yaml"
+    data = yaml.safe_load(path.read_text())
+    data["ground"] = ground
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    _, p.scenario = mmplan.read_plan(p.folder)
+
+
 def slip(p: Plan) -> None:
     """The platform drifts along y at 5 cm/s (q.y, dq.y consistent; wheels unchanged)."""
     p["q.y"] = p["q.y"] + 0.05 * p["t"]
@@ -240,8 +273,13 @@ TAMPERS = [
     Tamper("replay_2x_reforged", reforged(lambda p, _: replay_faster(p)),
            {"ej": ("torque limits: exceeded", "rate limits:"),
             "tracker": ("status: planner says 'reached' but the task is not completed",)}),
+    # ddq scaled with its efforts recomputed: the ddq check alone catches it on every plan
+    # (before, its allowance 0.5 x peak |ddq| let x1.5 through; only the torque limits did)
     Tamper("ddq_x1.5_reforged", reforged(lambda p, _: p.scale("ddq.", 1.5)),
-           {"ej": ("torque limits: exceeded",)}),
+           {"ej": ("ddq consistency", "torque limits: exceeded"),
+            "tracker": ("ddq consistency",), "endogenous": ("ddq consistency",)}),
+    Tamper("ddq_x0.5_reforged", reforged(lambda p, _: p.scale("ddq.", 0.5)),
+           same(("ddq consistency",))),
     # columns
     Tamper("tau_columns_swapped", lambda p, _: p.swap("tau.wheel1", "tau.wheel2"),
            {"ej": ("tau vs model",)}),
@@ -263,6 +301,10 @@ TAMPERS = [
     Tamper("nan_injected", lambda p, _: set_nan(p), same(("finite:",))),
     # physics broken consistently
     Tamper("platform_slips_reforged", reforged(lambda p, _: slip(p)), same(("pfaffian:",))),
+    Tamper("arm_through_floor_reforged", reforged(lower_through_floor),
+           same(("floor: clearance",))),
+    Tamper("floor_raised", lambda p, _: set_ground(p, 0.6),  # above the youBot's arm at rest
+           {"ej": ("floor: clearance",)}),
     Tamper("arm_bent_beyond_limit_reforged", reforged(bend_beyond_limit),
            {"ej": ("joint limits: exceeded",), "tracker": ("joint limits: exceeded",)}),
     # summary.json claims
@@ -338,3 +380,28 @@ def test_accelerations_x5_through_the_installed_command(honest: Callable[[str], 
     assert any(line.startswith("FAIL tau vs model") for line in fails), fails
     assert any(line.startswith("FAIL torque limits: exceeded") and "model efforts" in line
                for line in fails), fails
+
+
+class TestFloor:
+    """The floor z = 0 (docs/conventions.md, "Floor"): an arm lowered through it fails the check
+    (the tamper above); the same plan with the floor removed (``ground: null``) or lowered
+    below the dip passes, so the floor is the only reason."""
+
+    @pytest.mark.parametrize(("ground", "passes"), [(None, True), (-0.6, True), (0.0, False)])
+    def test_lowered_arm_passes_only_without_the_floor(
+            self, honest: Callable[[str], Path], tmp_path: Path, ground: float | None,
+            passes: bool) -> None:
+        folder = tmp_path / "plan"
+        shutil.copytree(honest("endogenous"), folder)
+        plan = Plan(folder)
+        lower_through_floor(plan, "endogenous")
+        set_ground(plan, ground)
+        plan.reforge()
+        checked = CliRunner().invoke(main, ["check", str(folder)])
+        assert checked.exit_code == (0 if passes else 3), checked.output
+        row = next(r for r in checked.stdout.splitlines() if r.startswith("min floor"))
+        assert ("no floor (ground: null)" in row) == (ground is None), row
+        tr, sc = mmplan.read_plan(folder)  # independent: the forearm's lowest sphere
+        points = np.array([sc.robot.collision_points(x)[:, 2] for x in tr.q])
+        forearm = [i for i, c in enumerate(sc.robot.collision) if c.body == "forearm"]
+        assert -0.55 < points[:, forearm].min() < -0.45

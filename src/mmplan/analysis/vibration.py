@@ -44,9 +44,9 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike
 
+from mmplan.analysis.expm import expm
 from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.robot.robot import Robot
@@ -132,7 +132,7 @@ def simulate_oscillator(
     for i, h in enumerate(steps):
         key = round(float(h), 12)
         if key not in cache:
-            cache[key] = scipy.linalg.expm(aug * h)[:2]
+            cache[key] = expm(aug * h)[:2]
         E = cache[key]
         slope = (a2[i + 1] - a2[i]) / h
         state = E[:, :2] @ state + np.outer(E[:, 2], a2[i]) + np.outer(E[:, 3], slope)

@@ -16,12 +16,9 @@ from typing import Any, NoReturn
 
 import click
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 import mmplan
-from mmplan.cli.output import ProgressBar as _Bar
-from mmplan.cli.output import StepStatus as _Steps
 from mmplan.cli.output import (
     err,
     out,
@@ -31,6 +28,7 @@ from mmplan.cli.output import (
     rate_limits_text,
     unavailable_text,
 )
+from mmplan.cli.progress import Progress, live_on
 from mmplan.errors import MmplanError
 
 ISSUES_HINT = "this is a bug in mmplan; please report it with the command you ran"
@@ -238,30 +236,32 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
     Exit code 0 when the task was reached and every check holds, 3 when planning ended
     without reaching it (summary.json says why) or a check failed, 2 for bad input.
     """
-    with _user_errors():
+    with _user_errors(), Progress(live_on(quiet)) as progress:
         from mmplan.io.plan_folder import check_out_dir
 
         if _is_dir(Path(scenario)):
             raise mmplan.InputError("SCENARIO", f"{scenario} is a directory; give a scenario "
                                     "file or a built-in name (`mmplan scenarios`)")
+        progress("loading the scenario")
         sc = mmplan.load_scenario(scenario)
         check_out_dir(out_dir)  # before planning: refuse a folder we would not replace
         problem = sc.build()
         planner = mmplan.get_planner(sc.method)()
-        bar = _Bar(enabled=not quiet and err.is_terminal)  # no bar (nor its newline) in logs
+        progress("planning")
         try:
-            result = planner.plan(problem, progress=bar)
+            result = planner.plan(problem, progress=progress.fraction)
         except mmplan.ScenarioError:
             raise
         except mmplan.InputError as exc:  # a planner's own check of the scenario: name the file
             raise mmplan.ScenarioError(sc.source, exc.field, exc.problem) from None
-        finally:
-            bar.close()
         from mmplan.analysis import analyse
 
+        progress("studying the plan")
         result = analyse(result, problem)
+        progress("checking and writing the plan")
         written = mmplan.write_plan(out_dir, result, problem, sc, fmt=fmt)
         summary = mmplan.read_summary(written)
+        progress.close()
         if not quiet:
             print_plan(result, summary, written)
         failures = [str(f) for f in summary.get("check_failures", [])]
@@ -270,7 +270,8 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
         if with_report:
             from mmplan.report import write_report  # optional extra: imported only here
 
-            page = write_report(written)
+            page = write_report(written, step=progress)
+            progress.close()
             if not quiet:
                 out.print(f"report: {page}", markup=False)
         if not result.reached or failures:
@@ -279,7 +280,9 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
 
 @main.command(name="check")
 @click.argument("directory", type=click.Path(path_type=Path))
-def check_cmd(directory: Path) -> None:
+@click.option("--quiet", "-q", is_flag=True,
+              help="No progress line and no listing: FAIL lines and the exit code only.")
+def check_cmd(directory: Path, quiet: bool) -> None:
     """Re-verify the plan in DIRECTORY independently of the planner that made it.
 
     Recomputes from q alone: end effector by forward kinematics, clearance to the original
@@ -295,29 +298,37 @@ def check_cmd(directory: Path) -> None:
 
     Exit code 0 when every check holds, 3 naming each failed check, 2 on unreadable input.
     """
-    with _user_errors():
+    with _user_errors(), Progress(live_on(quiet)) as progress:
         from mmplan.verify.summary import summary_disagreements
 
         if directory.exists() and not directory.is_dir():
             raise mmplan.InputError(str(directory), "is a file; give a plan directory "
                                     "(written by mmplan plan --out DIR)")
+        progress("reading the plan")
         trajectory, sc = mmplan.read_plan(directory)
         claimed = mmplan.read_summary(directory)
         status = claimed.get("status")
-        report = mmplan.check(trajectory, sc.build(),
+        problem = sc.build()
+        progress("checking the plan")
+        report = mmplan.check(trajectory, problem,
                               status=None if status is None else str(status))
         failures = report.failures() + summary_disagreements(claimed, report, sc.method)
-        print_check(report, trajectory_end_s=float(trajectory.t[-1]))
+        progress.close()
+        if not quiet:
+            print_check(report, trajectory_end_s=float(trajectory.t[-1]))
         for line in failures:
             err.print(_one_line(f"FAIL {line}"), markup=False, soft_wrap=True)
         if failures:
             raise SystemExit(3)
-        out.print("check passed", markup=False)
+        if not quiet:
+            out.print("check passed", markup=False)
 
 
 @main.command()
 @click.argument("plan_dir", type=click.Path(path_type=Path))
-def report(plan_dir: Path) -> None:
+@click.option("--quiet", "-q", is_flag=True,
+              help="No progress line and no \"wrote\" line (warnings and errors only).")
+def report(plan_dir: Path, quiet: bool) -> None:
     """Write PLAN_DIR/report.html and PLAN_DIR/figures/*.png for a written plan.
 
     One self-contained HTML file (opens offline): summary table, the papers' figures for the
@@ -329,10 +340,19 @@ def report(plan_dir: Path) -> None:
 
     Exit code 0 when written, 2 when PLAN_DIR is not a readable plan directory.
     """
-    with _user_errors():
-        from mmplan.report import render_report_cli  # optional extra: imported only here
+    with _user_errors(), Progress(live_on(quiet)) as progress:
+        from mmplan.cli.report_cmd import write_checked_report  # optional extra: only here
 
-        render_report_cli(plan_dir)
+        page, failed = write_checked_report(plan_dir, progress)
+        progress.close()
+        if not quiet:
+            figures = len(list((page.parent / "figures").glob("*.png")))
+            out.print(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB, {figures} figures "
+                      f"in {page.parent / 'figures'})", markup=False)
+        if failed:
+            more = f" (+{len(failed) - 1} more)" if len(failed) > 1 else ""
+            err.print(_one_line(f"warning: this plan FAILS its checks: {failed[0]}{more}; see "
+                                f"`mmplan check {plan_dir}`"), markup=False, soft_wrap=True)
 
 
 @main.command(name="export")
@@ -371,14 +391,11 @@ def export_cmd(plan_dir: Path, rate: float, out_dir: Path | None, bag: Path | No
     but a check fails (FAIL lines), 2 for bad input (no plan folder, a rate outside 1-10000
     Hz, an output that may not be written, rosbags not installed).
     """
-    with _user_errors():
+    with _user_errors(), Progress(live_on(quiet)) as progress:
         from mmplan.io.export import export_plan
 
-        steps = _Steps(enabled=not quiet and err.is_terminal)
-        try:
-            done = export_plan(plan_dir, rate=rate, out=out_dir, ros2=bag, step=steps)
-        finally:
-            steps.close()
+        done = export_plan(plan_dir, rate=rate, out=out_dir, ros2=bag, step=progress)
+        progress.close()
         if not quiet:
             print_export(done)
         for line in done.failures:
@@ -398,16 +415,21 @@ def export_cmd(plan_dir: Path, rate: float, out_dir: Path | None, bag: Path | No
               help="Run only these scenarios (repeatable, comma lists; further NAMES as "
                    "arguments); variants come with their scenario.")
 @click.option("--no-report", is_flag=True, help="Skip the per-scenario report.html (faster).")
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None,
+              help="Runs at a time, each in its own process (default: one per idle CPU, "
+                   "at least 1, at most 4).")
+@click.option("--quiet", "-q", is_flag=True,
+              help="No progress line; of the runs only the failed ones are listed.")
 @click.argument("names", nargs=-1, metavar="[NAME]...")
-def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool,
-                  names: tuple[str, ...]) -> None:
+def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool, jobs: int | None,
+                  quiet: bool, names: tuple[str, ...]) -> None:
     """Plan every built-in paper scenario and compare our numbers with the papers'.
 
     Writes OUT/<scenario>/ (plan and report.html) for each built-in paper scenario (and
     the switched-off variants the references compare against), then OUT/REPRODUCTION.md and
     OUT/reproduction.html: paper figure | quantity | paper | ours | difference | verdict for
     every number the papers publish and the reference runs' numbers ([RefRuns], see
-    docs/references.md), each linked to its report.
+    docs/references.md), each linked to its report. Each run is listed as it finishes.
     Examples:
 
     \b
@@ -417,26 +439,29 @@ def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool,
     Exit code 0 when every scenario reached its task (even if a number differs), 3 when a
     scenario failed to plan (its row says why), 2 for bad input.
     """
-    with _user_errors():
+    with _user_errors(), Progress(live_on(quiet)) as progress:
         from mmplan.reproduce.run import reproduce, run_specs
+        from mmplan.reproduce.runs import RunOutcome
 
         selected = (*only, *names)
-        total = len(run_specs(selected))  # validates the names before any work
-        with Progress(TextColumn("{task.description:<36}"), BarColumn(), TaskProgressColumn(),
-                      TimeElapsedColumn(), console=err, transient=True,
-                      disable=not err.is_terminal) as bar:
-            task = bar.add_task("reproduce", total=total)
+        run_specs(selected)  # validates the names before any work
+        progress("reproducing")
 
-            def progress(name: str, done: float, count: int) -> None:
-                bar.update(task, description=name, completed=done)
+        def advance(name: str, done: float, count: int) -> None:
+            progress.describe(f"{name} ({min(int(done) + 1, count)}/{count})")
+            progress.fraction(done / count)
 
-            result = reproduce(out_dir, selected, report=not no_report, progress=progress)
-        for run in result.runs:
-            mark = ("ok  " if run.status == "reached"
-                    else "FAIL" if run.spec.base is None else "    ")
-            out.print(f"{mark} {run.spec.name:36s} {run.status:10s} {run.wall_time_s:6.1f} s"
-                      + (f"  (report: {run.report_error})" if run.report_error else ""),
-                      markup=False)
+        def finished(run: RunOutcome) -> None:
+            failed = run.status != "reached" and run.spec.base is None
+            if failed or not quiet:
+                mark = "ok  " if run.status == "reached" else "FAIL" if failed else "    "
+                progress.print(f"{mark} {run.spec.name:36s} {run.status:10s} "
+                               f"{run.wall_time_s:6.1f} s" + (f"  (report: {run.report_error})"
+                                                              if run.report_error else ""))
+
+        result = reproduce(out_dir, selected, report=not no_report, progress=advance,
+                           jobs=jobs, finished=finished)
+        progress.close()
         verdicts = [row.verdict.split(" (")[0] for row in result.rows]
         counts = ", ".join(f"{v} {verdicts.count(v)}" for v in sorted(set(verdicts)))
         out.print(f"{len(result.rows)} numbers compared ({counts}) in {result.wall_time_s:.0f} s",

@@ -1,27 +1,20 @@
-"""Console output of the ``mmplan`` command: the progress bar and the metric listings."""
+"""Console output of the ``mmplan`` command: the metric listings (progress: :mod:`.progress`)."""
 
 from __future__ import annotations
 
 import math
-import threading
-import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
 import mmplan
 
 if TYPE_CHECKING:
-    from rich.status import Status
-
     from mmplan.io.export import Exported
     from mmplan.robot import RateLimits
     from mmplan.verify.rates import RateReport
-
-PROGRESS_DELAY_S = 1.0
 
 out = Console(highlight=False, soft_wrap=True)
 err = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -33,32 +26,6 @@ def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:
     if isinstance(value, float):
         return f"{value:.{digits}g}{unit}"
     return f"{value}{unit}"
-
-
-class ProgressBar:
-    """Progress callback that shows a rich bar once planning has run for a second."""
-
-    def __init__(self, enabled: bool) -> None:
-        self.enabled = enabled
-        self.start = time.perf_counter()
-        self.progress: Progress | None = None
-        self.task: Any = None
-
-    def __call__(self, fraction: float) -> None:
-        if not self.enabled:
-            return
-        if self.progress is None:
-            if time.perf_counter() - self.start < PROGRESS_DELAY_S:
-                return
-            self.progress = Progress(TextColumn("planning"), BarColumn(), TaskProgressColumn(),
-                                     TimeElapsedColumn(), console=err, transient=True)
-            self.progress.start()
-            self.task = self.progress.add_task("plan", total=1.0)
-        self.progress.update(self.task, completed=min(max(float(fraction), 0.0), 1.0))
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
 
 
 def _when(value: float | None, timed: bool) -> str:
@@ -74,10 +41,20 @@ def _row(label: str, value: str, rule: str = "") -> None:
     out.print(f"{text:46s} {rule}".rstrip() if rule else text, markup=False)
 
 
+def _floor_row(clearance: Any, where: str = "") -> None:
+    """The floor clearance row and its rule (:mod:`mmplan.verify.floor`)."""
+    from mmplan.verify.floor import FLOOR_TOL
+
+    floor = where.rpartition(", ")[2] if where else ""  # "floor z = h m"
+    rule = (f"must be >= {FLOOR_TOL:g} m" + (f" ({floor}; arm spheres)" if floor else "")
+            if clearance is not None else "no floor (ground: null) or no arm spheres")
+    _row("min floor clearance", _fmt(clearance, " m"), rule)
+
+
 def print_plan(result: mmplan.PlanResult, summary: dict[str, Any], written: Path) -> None:
     """Status, then the checker's numbers as written to summary.json: the reach time (from
     then on within the tolerance) apart from the trajectory's end (its last sample)."""
-    reached = result.status.value == "reached"
+    reached = result.reached
     message = f" ({result.message})" if result.message and not reached else ""
     out.print(f"status: {result.status.value}{message}", markup=False)
     peaks = summary.get("peak_velocity")
@@ -92,6 +69,7 @@ def print_plan(result: mmplan.PlanResult, summary: dict[str, Any], written: Path
     clearance = summary.get("min_clearance_m")
     _row("min clearance", _fmt(clearance, " m"),
          "must be >= 0 m" if clearance is not None else "no obstacles")
+    _floor_row(summary.get("min_floor_clearance_m"))
     _row("compute time", _fmt(summary.get("compute_time_s"), " s", 3))
     out.print(f"written to {written}", markup=False)
 
@@ -106,7 +84,13 @@ def print_check(report: mmplan.CheckReport, trajectory_end_s: float | None = Non
             when given (the report does not hold it).
     """
     from mmplan.verify.check import DQ_REL_TOL, EE_TOL, LIMIT_TOL, PFAFFIAN_TOL, TORQUE_TOL
-    from mmplan.verify.consistency import DDQ_ABS_TOL, DDQ_REL_TOL, START_TOL, TAU_MODEL_TOL
+    from mmplan.verify.consistency import (
+        DDQ_ABS_TOL,
+        DDQ_LOCAL_TOL,
+        DDQ_REL_TOL,
+        START_TOL,
+        TAU_MODEL_TOL,
+    )
 
     rates = getattr(report, "rates", None)
     timed = bool(getattr(rates, "timed", True))
@@ -134,6 +118,11 @@ def print_check(report: mmplan.CheckReport, trajectory_end_s: float | None = Non
     _row("final error", _fmt(report.final_error_m, " m"), "info")
     _row("min clearance", _fmt(report.min_clearance_m, " m"),
          "must be >= 0 m" if report.min_clearance_m is not None else "no obstacles")
+    _floor_row(report.min_floor_clearance_m, report.floor_where)
+    self_where = f" ({report.self_clearance_where})" if report.self_clearance_where else ""
+    _row("min self-clearance", _fmt(report.min_self_clearance_m, " m") + self_where,
+         "must be >= 0 m (self-collision pairs)" if report.min_self_clearance_m is not None
+         else "no self-collision pairs")
     _row("joint limit violation", _fmt(report.max_joint_limit_violation),
          f"must be <= {LIMIT_TOL:g} (rad or m)")
     source = f", {report.torque_source} efforts" if report.torque_source else ""
@@ -148,8 +137,9 @@ def print_check(report: mmplan.CheckReport, trajectory_end_s: float | None = Non
     _row("dq residual", _fmt(report.dq_residual, " /s"),
          f"must be <= {dq_limit:.3g} /s ({DQ_REL_TOL:g} x max |dq| {report.dq_scale:.3g})")
     _row("ddq vs interpolant", _fmt(cons.ddq_excess),
-         f"must be <= {cons.ddq_allowed:.3g} there ({DDQ_REL_TOL:g} x the coordinate's peak "
-         f"|ddq| + {DDQ_ABS_TOL:g}; outside the adjacent steps' range)"
+         f"must be <= {cons.ddq_allowed:.3g} there ({DDQ_LOCAL_TOL:g} x the local spread + "
+         f"{DDQ_REL_TOL:g} x the coordinate's peak |ddq| + {DDQ_ABS_TOL:g}; outside the "
+         f"adjacent steps' range)"
          if math.isfinite(cons.ddq_allowed)
          else "one sample: nothing to compare")
     _row("ee vs FK", _fmt(report.ee_deviation_m, " m"), f"must be <= {EE_TOL:g} m")
@@ -213,46 +203,6 @@ def unavailable_text(exc: mmplan.InputError) -> str:
     if INSTALL_HINT in exc.problem:
         return f"not installed ({INSTALL_HINT})"
     return f"not available: {exc.problem}"
-
-
-class StepStatus:
-    """Step callback that shows a spinner line with the step's name once it has run a second."""
-
-    def __init__(self, enabled: bool, delay: float = PROGRESS_DELAY_S) -> None:
-        self.enabled = enabled
-        self.delay = delay
-        self.shown: list[str] = []
-        self._lock = threading.Lock()
-        self._generation = 0
-        self._timer: threading.Timer | None = None
-        self._status: Status | None = None
-
-    def __call__(self, label: str) -> None:
-        self.close()
-        if self.enabled:
-            with self._lock:
-                self._timer = threading.Timer(self.delay, self._show,
-                                              args=(label, self._generation))
-                self._timer.daemon = True
-                self._timer.start()
-
-    def _show(self, label: str, generation: int) -> None:
-        with self._lock:
-            if generation == self._generation:  # the step is still running
-                self._status = err.status(label)
-                self._status.start()
-                self.shown.append(label)
-
-    def close(self) -> None:
-        """End the current step's line (if any)."""
-        with self._lock:
-            self._generation += 1
-            if self._timer is not None:
-                self._timer.cancel()
-                self._timer = None
-            if self._status is not None:
-                self._status.stop()
-                self._status = None
 
 
 def print_export(done: Exported) -> None:

@@ -15,6 +15,7 @@ import hashlib
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -116,6 +117,16 @@ def compile_function(
         return load([function.name()], library)[0], "c"
     except RuntimeError:
         return function, "vm"
+
+
+_NOTICES: set[str] = set()
+
+
+def notice(message: str) -> None:
+    """One line on stderr, once per process and message (a slow build, no compiler)."""
+    if message not in _NOTICES:
+        _NOTICES.add(message)
+        print(f"mmplan: {message}", file=sys.stderr, flush=True)
 
 
 def load(names: Sequence[str], library: str) -> list[ca.Function]:

@@ -55,7 +55,7 @@ import numpy as np
 
 from mmplan import interpolant
 from mmplan.arrays import Array
-from mmplan.errors import InputError
+from mmplan.errors import InputError, require
 from mmplan.robot import Robot
 from mmplan.trajectory import Trajectory
 
@@ -152,6 +152,8 @@ def resample_detailed(trajectory: Trajectory, rate: float, robot: Robot) -> Resa
     Raises:
         InputError: a bad rate, coordinates that are not the robot's, or non-finite values.
     """
+    require(trajectory, Trajectory, "trajectory", "a Trajectory")
+    require(robot, Robot, "robot", "a Robot")
     tr = trajectory
     if tr.coordinates != robot.coordinates:
         raise InputError("trajectory", f"coordinates {tr.coordinates} are not those of "

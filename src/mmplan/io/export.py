@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.errors import InputError
+from mmplan.errors import InputError, path_argument
 from mmplan.io.control_rate import (
     DEFAULT_RATE_HZ,
     Resampled,
@@ -80,8 +80,9 @@ def export_plan(plan_dir: str | Path, *, rate: float = DEFAULT_RATE_HZ,
     if out is None and ros2 is None:
         raise InputError("export", "nothing to write: give --out DIR and/or --ros2 BAG")
     check_rate(rate)
-    folder = Path(plan_dir)
-    outputs = [(flag, Path(p)) for flag, p in (("--out", out), ("--ros2", ros2)) if p is not None]
+    folder = path_argument(plan_dir, "plan_dir")
+    outputs = [(flag, path_argument(p, flag)) for flag, p in (("--out", out), ("--ros2", ros2))
+               if p is not None]
     _check_apart(folder, outputs)
     if out is not None:
         check_out_dir(out)
@@ -95,9 +96,10 @@ def export_plan(plan_dir: str | Path, *, rate: float = DEFAULT_RATE_HZ,
     if isinstance(problem.task, DrawSegment):
         raise InputError(str(folder), "t of a manipulability-area plan is the segment parameter, "
                          "not time: it has no control rate")
-    status = summary.get("status")
-    if status not in {s.value for s in Status}:
-        raise InputError(str(folder / "summary.json"), f"status {status!r} is not a status")
+    try:
+        status = Status(str(summary.get("status")))
+    except InputError as err:
+        raise InputError(str(folder / "summary.json"), err.problem) from None
     note(f"resampling at {float(rate):g} Hz")
     resampled = resample_detailed(trajectory, rate, problem.robot)
     written = bag = None
@@ -106,7 +108,7 @@ def export_plan(plan_dir: str | Path, *, rate: float = DEFAULT_RATE_HZ,
         note("writing and checking the plan folder")
         info = summary.get("planner_info")
         result = PlanResult(
-            Status(status), resampled.trajectory, scenario.method,
+            status, resampled.trajectory, scenario.method,
             message=str(summary.get("message") or ""),
             compute_time_s=float(summary.get("compute_time_s") or 0.0),
             info={**(info if isinstance(info, dict) else {}), "export": resampled.info()},
@@ -117,7 +119,7 @@ def export_plan(plan_dir: str | Path, *, rate: float = DEFAULT_RATE_HZ,
         failures = [str(f) for f in read_summary(written).get("check_failures", [])]
     else:
         note("checking the resampled plan")
-        failures = check(resampled.trajectory, problem, status=str(status)).failures()
+        failures = check(resampled.trajectory, problem, status=status).failures()
     if ros2 is not None:
         note("writing the ROS 2 bag")
         bag = ros2_io.write_bag(resampled.trajectory, problem.robot, ros2)

@@ -9,7 +9,8 @@ A plan directory holds
   (:func:`mmplan.verify.check.check`), plus ``check_passed`` and ``check_failures`` (the checker's
   verdict, one line per failed check), ``message``, ``scenario`` and ``planner_info``;
   non-finite numbers are written as null;
-* ``scenario.yaml``: the resolved scenario (every default filled in; for a problem built in
+* ``scenario.yaml``: the resolved scenario (every default filled in, the floor height
+  ``ground`` included, so that ``mmplan check`` rebuilds the same scene; for a problem built in
   Python, the problem itself: :func:`~mmplan.scenario.from_problem.scenario_from_problem`);
 * ``history.csv`` (when the planner recorded per-iteration series), ``artifacts.npz`` (when it
   produced arrays for reports), ``trajectory.npz`` (with ``fmt="npz"``, besides the CSV).
@@ -37,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.errors import InputError, ModelError
+from mmplan.errors import InputError, ModelError, path_argument, require
 from mmplan.io.stale import owned_temp_dir, release, remove_stale
 from mmplan.problem import Problem
 from mmplan.scenario.loader import Scenario, load_scenario
@@ -73,6 +74,10 @@ def write_plan(out_dir: str | Path, result: PlanResult, problem: Problem,
     """
     if fmt not in FORMATS:
         raise InputError("--format", f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    require(result, PlanResult, "result", "a PlanResult (Planner.plan(problem))")
+    require(problem, Problem, "problem", "a Problem (Scenario.build())")
+    if scenario is not None:
+        require(scenario, Scenario, "scenario", "a Scenario (mmplan.load_scenario) or None")
     out = check_out_dir(out_dir)
     if scenario is None:
         from mmplan.scenario.from_problem import scenario_from_problem
@@ -135,10 +140,9 @@ def check_out_dir(out_dir: str | Path) -> Path:
     (:func:`is_plan_dir`). Rejected: the file-system root, the working directory or one of
     its ancestors, an existing file, any other existing directory.
     """
-    text = str(out_dir)
-    if not text.strip():
+    out = path_argument(out_dir, "--out")
+    if not str(out_dir).strip():
         raise InputError("--out", "empty path")
-    out = Path(out_dir)
     try:
         full = out.resolve()
         cwd = Path.cwd().resolve()
@@ -276,7 +280,7 @@ def read_trajectory_csv(path: str | Path) -> Trajectory:
     Raises:
         InputError: missing file, bad header or malformed numbers.
     """
-    path = Path(path)
+    path = path_argument(path, "path")
     try:
         with path.open(encoding="utf-8") as fh:
             header = fh.readline().strip().split(",")
@@ -329,7 +333,7 @@ def read_plan(directory: str | Path) -> tuple[Trajectory, Scenario]:
     Raises:
         InputError: not a plan directory, or unreadable files.
     """
-    folder = Path(directory)
+    folder = path_argument(directory, "directory")
     if not folder.is_dir():
         raise InputError(str(folder), "no such directory")
     for name in ("trajectory.csv", "scenario.yaml"):
@@ -342,7 +346,7 @@ def read_plan(directory: str | Path) -> tuple[Trajectory, Scenario]:
 
 def read_summary(directory: str | Path) -> dict[str, Any]:
     """summary.json of a plan directory as a dict (InputError if missing or malformed)."""
-    path = Path(directory) / "summary.json"
+    path = path_argument(directory, "directory") / "summary.json"
     try:
         with path.open("rb") as fh:
             raw = fh.read(MAX_SUMMARY_BYTES + 1)

@@ -39,7 +39,7 @@ from typing import Any, Literal
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.errors import InputError
+from mmplan.errors import InputError, path_argument, require
 from mmplan.robot import Robot
 from mmplan.robot.bases import Omnidirectional
 from mmplan.trajectory import Trajectory
@@ -90,10 +90,9 @@ def check_bag_dir(path: str | Path) -> Path:
     Accepted: a path that does not exist yet, an empty folder, or an earlier rosbag2 folder
     (metadata.yaml and .db3/.mcap files only), replaced once the new bag is complete.
     """
-    text = str(path)
-    if not text.strip():
+    out = path_argument(path, "--ros2")
+    if not str(path).strip():
         raise InputError("--ros2", "empty path")
-    out = Path(path)
     try:
         full, cwd = out.resolve(), Path.cwd().resolve()
     except (OSError, RuntimeError) as exc:
@@ -179,6 +178,8 @@ def write_bag(trajectory: Trajectory, robot: Robot, out: str | Path,
     Raises:
         InputError: rosbags missing, ``out`` may not be written.
     """
+    require(trajectory, Trajectory, "trajectory", "a Trajectory")
+    require(robot, Robot, "robot", "a Robot")
     require_rosbags()
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore

@@ -16,7 +16,8 @@ from typing import Any, ClassVar, Generic, TypeVar, get_args, get_origin
 import numpy as np
 from pydantic import ValidationError
 
-from mmplan.errors import InputError
+from mmplan.errors import InputError, require
+from mmplan.planners import culling
 from mmplan.problem import PlannerSettings, Problem, Progress
 from mmplan.task import Task
 from mmplan.trajectory import PlanResult, Solution
@@ -76,18 +77,22 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
     def plan(self, problem: Problem, progress: Progress = None) -> PlanResult:
         """Plan ``problem``; always returns a result whose status says how it ended.
 
+        The method's model holds only the obstacles near the region the robot can reach; the
+        plan is verified against the others and planned again with any it comes near
+        (:mod:`mmplan.planners.culling`; ``info`` then says how many were culled).
+
         Raises:
-            InputError: settings of another method, or a goal kind this method does not plan,
-                or bad input the method detects before planning.
+            InputError: not a Problem, settings of another method, or a goal kind this method
+                does not plan, more obstacles near the reachable region than
+                ``culling.MAX_NEAR_OBSTACLES``, or bad input the method detects before
+                planning.
         """
         clock = time.perf_counter()
-        settings = self.settings(problem.settings)
-        robot = problem.robot
-        if np.shape(problem.start) != (robot.n,):
-            raise InputError(
-                "start", f"expected {robot.n} values {list(robot.coordinates)}, "
-                f"got shape {np.shape(problem.start)}"
-            )
+        require(problem, Problem, "problem", "a Problem (Scenario.build())")
+        if progress is not None and not callable(progress):
+            raise InputError("progress", f"expected a function of the fraction done or None, "
+                             f"got {type(progress).__name__}")
+        settings = self.settings(problem.settings)  # start: checked by Problem
         task = problem.task
         if not isinstance(task, self.task_type):
             raise InputError(
@@ -95,7 +100,7 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
                 f"the {self.method} planner needs {self.task_type.goal_form}, "
                 f"got {type(task).__name__}",
             )
-        solution = self._solve(problem, settings, task, progress)  # type: ignore[arg-type]
+        solution, info = self._solve_culled(problem, settings, task, progress)  # type: ignore[arg-type]
         solution = _with_efforts(solution, problem)
         if progress is not None:
             progress(1.0)
@@ -105,10 +110,39 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
             planner=self.method,
             message=solution.message,
             compute_time_s=time.perf_counter() - clock,
-            info=solution.info,
+            info={**solution.info, **info},
             history=solution.history,
             artifacts=solution.artifacts,
         )
+
+    def _solve_culled(self, problem: Problem, settings: SettingsT, task: TaskT,
+                      progress: Progress) -> tuple[Solution, dict[str, Any]]:
+        """``_solve`` on the obstacles near the reachable region, verified against all
+        (:mod:`mmplan.planners.culling`); the info says what was culled, when anything was."""
+        kept = culling.kept_obstacles(problem)
+        replans = 0
+        while True:
+            culled = problem if kept is None else culling.with_obstacles(problem, kept)
+            try:
+                solution = self._solve(culled, settings, task, progress)
+            except InputError as err:
+                if kept is None:
+                    raise
+                raise culling.renumbered(err, kept) from None
+            if kept is None:
+                break
+            near = culling.came_near(problem, kept, solution.trajectory)
+            if not near:
+                break
+            replans += 1
+            kept = (None if replans > culling.MAX_REPLANS
+                    else tuple(sorted({*kept, *near})))
+        if kept is None and not replans:
+            return solution, {}
+        n = len(problem.scene.obstacles)
+        modelled = n if kept is None else len(kept)
+        return solution, {"obstacles_modelled": modelled, "obstacles_culled": n - modelled,
+                          "obstacle_replans": replans}
 
     @classmethod
     def settings(cls, settings: PlannerSettings) -> SettingsT:
@@ -119,6 +153,7 @@ class Planner(ABC, Generic[SettingsT, TaskT]):
         """
         if isinstance(settings, cls.settings_model):
             return settings  # type: ignore[return-value]
+        require(settings, PlannerSettings, "planner", f"settings of method {cls.method!r}")
         if settings.method != cls.method:
             raise InputError(
                 "planner.method",

@@ -2,8 +2,8 @@
 
 Optional extra (``pip install 'mmplan[report]'``: matplotlib for the figures, meshcat for the
 3D viewer, whose three.js bundle is inlined); imported only by report code and
-the CLI, never by the core. Entry points: :func:`write_report` (library) and
-:func:`render_report_cli` (``mmplan report DIR``). Numerical warnings of the plotting stack
+the CLI, never by the core. Entry points: :func:`write_report` and :func:`check_failures`
+(``mmplan report DIR``: :mod:`mmplan.cli.report_cmd`). Numerical warnings of the plotting stack
 (overflow in axis scaling of extreme data, empty CSV files) are silenced: the report shows the
 data as it is and errors are reported as one line. A plan that fails its independent checks
 is still rendered, with a red banner in the summary and a one-line warning on stderr.
@@ -61,35 +61,4 @@ def check_failures(plan_dir: str | Path) -> list[str]:
     return report.failures() + summary_disagreements(claimed, report, sc.method)
 
 
-def render_report_cli(plan_dir: str | Path) -> Path:
-    """``mmplan report DIR``: write the report, print where it is; warn (one line on stderr)
-    when the plan fails its independent checks. A step that runs over a second shows its name
-    on the terminal (stderr) while it runs."""
-    import click
-
-    from mmplan.cli.output import StepStatus, err
-    from mmplan.report.background import Background
-
-    # the check runs in a child process while this one imports matplotlib and draws
-    checking = Background(lambda: check_failures(plan_dir))
-    steps = StepStatus(enabled=err.is_terminal)
-    try:
-        out = write_report(plan_dir, step=steps)
-        steps("checking the plan")
-        failed = checking.result()
-    finally:
-        checking.cancel()
-        steps.close()
-    figures = len(list((Path(plan_dir) / "figures").glob("*.png")))
-    click.echo(
-        f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB, {figures} figures in "
-        f"{out.parent / 'figures'})"
-    )
-    if failed:
-        more = f" (+{len(failed) - 1} more)" if len(failed) > 1 else ""
-        click.echo(f"warning: this plan FAILS its checks: {failed[0]}{more}; see "
-                   f"`mmplan check {plan_dir}`", err=True)
-    return out
-
-
-__all__ = ["MissingExtraError", "check_failures", "render_report_cli", "write_report"]
+__all__ = ["MissingExtraError", "check_failures", "write_report"]

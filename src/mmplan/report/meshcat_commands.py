@@ -20,26 +20,58 @@ Two small departures from meshcat-python, both in the messages only:
 from __future__ import annotations
 
 import itertools
+import sys
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
-from typing import Any
+from importlib import import_module
+from importlib.util import find_spec
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import umsgpack
 
-with warnings.catch_warnings():  # meshcat's package imports its (unused) server's zmq modules
-    warnings.simplefilter("ignore", DeprecationWarning)
-    from meshcat import geometry as g
-from meshcat.animation import Animation, AnimationClip
-from meshcat.commands import (
-    SetAnimation,
-    SetObject,
-    SetProperty,
-    SetTransform,
-)
-from meshcat.path import Path
-
 from mmplan.arrays import Array
+
+
+def _meshcat_parts() -> dict[str, ModuleType]:
+    """meshcat's geometry, commands, animation and path modules, loaded without running the
+    package's ``__init__``, which imports meshcat's server (ZeroMQ, tornado, IPython: 0.3 s
+    of the report's time, none of it used here). The package stands in sys.modules as a bare
+    module only while its parts load; a later ``import meshcat`` runs the real ``__init__``,
+    which finds them loaded."""
+    names = ("geometry", "commands", "animation", "path")
+    spec = find_spec("meshcat")
+    where = list(spec.submodule_search_locations or ()) if spec is not None else []
+    bare = "meshcat" not in sys.modules and bool(where)
+    if bare:
+        package = ModuleType("meshcat")
+        package.__path__ = where
+        sys.modules["meshcat"] = package
+    try:
+        with warnings.catch_warnings():  # meshcat's own package imports zmq (deprecations)
+            warnings.simplefilter("ignore", DeprecationWarning)
+            return {name: import_module(f"meshcat.{name}") for name in names}
+    finally:
+        if bare:
+            del sys.modules["meshcat"]
+
+
+if TYPE_CHECKING:
+    from meshcat import geometry as g
+    from meshcat.animation import Animation, AnimationClip
+    from meshcat.commands import SetAnimation, SetObject, SetProperty, SetTransform
+    from meshcat.path import Path
+else:
+    _meshcat = _meshcat_parts()
+    g = _meshcat["geometry"]
+    Animation = _meshcat["animation"].Animation
+    AnimationClip = _meshcat["animation"].AnimationClip
+    SetAnimation = _meshcat["commands"].SetAnimation
+    SetObject = _meshcat["commands"].SetObject
+    SetProperty = _meshcat["commands"].SetProperty
+    SetTransform = _meshcat["commands"].SetTransform
+    Path = _meshcat["path"].Path
 
 #: meshcat's geometry classes (Box, Cylinder, Sphere, TriangularMeshGeometry, ...).
 geometry = g

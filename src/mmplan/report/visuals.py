@@ -29,10 +29,11 @@ meshcat's viewer loads as they are.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeGuard
 
 import numpy as np
 
@@ -278,10 +279,8 @@ def body_visuals(robot: Robot, ranges: Mapping[str, tuple[float, float]] | None 
 def robot_looks(robot: Robot, ranges: Mapping[str, tuple[float, float]] | None = None
                 ) -> Looks:
     """:func:`body_visuals` with the legend saying how the robot is drawn."""
-    from mmplan.robot.urdf.robot import UrdfRobot
-
     note = ""
-    if isinstance(robot, UrdfRobot) and robot.source.urdf is not None:
+    if _is_urdf_robot(robot) and robot.source.urdf is not None:
         looks, note = _urdf_looks(robot)
         if looks is not None:
             return looks
@@ -290,6 +289,13 @@ def robot_looks(robot: Robot, ranges: Mapping[str, tuple[float, float]] | None =
     _wheel_bodies(robot, out)
     _arm_visuals(robot, ranges or {}, out)
     return Looks({name: tuple(v) for name, v in out.items() if v}, BUILTIN_LEGEND + note)
+
+
+def _is_urdf_robot(robot: Robot) -> TypeGuard[UrdfRobot]:
+    """``isinstance(robot, UrdfRobot)`` without importing the URDF package (SciPy, a third of
+    a second) for a built-in robot: a URDF robot exists only once that module is loaded."""
+    module = sys.modules.get("mmplan.robot.urdf.robot")
+    return module is not None and isinstance(robot, module.UrdfRobot)
 
 
 def _wheel_bodies(robot: Robot, out: dict[str, list[Visual]]) -> None:

@@ -10,14 +10,14 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 import yaml
 
-from mmplan.reproduce.published import Check, Op, Reference
+from mmplan.reproduce.published import FLOOR_TWINS, Check, Op, Reference, no_floor
 
 Value = float | tuple[float, float] | str
 
@@ -48,6 +48,9 @@ class Evaluated:
         verdict: matches / differs / differs (expected) / holds / within slack / violated /
             no value: <why>; " (plan: <status>)" appended when a run did not reach its task.
         statuses: Plan status of every run the value needs.
+        without_floor: The row evaluated on the runs without the floor
+            (:data:`~mmplan.reproduce.published.FLOOR_TWINS`), None when the row reads no such
+            run (:func:`with_floor_note`).
     """
 
     ref: Reference
@@ -57,6 +60,20 @@ class Evaluated:
     rel: float | None
     verdict: str
     statuses: tuple[str, ...]
+    without_floor: Evaluated | None = None
+
+    @property
+    def floor_changed(self) -> bool | None:
+        """Whether the floor changes our value (None: no run without the floor to compare)."""
+        if self.without_floor is None:
+            return None
+        other = self.without_floor.ours
+        if self.ours is None or other is None:
+            return self.ours is not other
+        if isinstance(self.ours, str) or isinstance(other, str):
+            return self.ours != other
+        a, b = np.ravel(self.ours), np.ravel(other)
+        return not bool(np.allclose(a, b, rtol=1e-9, atol=1e-12))
 
 
 class MissingValueError(Exception):
@@ -77,6 +94,17 @@ def evaluate(ref: Reference, runs: Mapping[str, RunFiles]) -> Evaluated:
     if unreached:
         verdict += f" (plan: {', '.join(unreached)})"
     return Evaluated(ref, m.runs[0], ours, delta, rel, verdict, statuses)
+
+
+def with_floor_note(row: Evaluated, runs: Mapping[str, RunFiles]) -> Evaluated:
+    """``row`` with :attr:`Evaluated.without_floor` set when a run it reads has a twin without
+    the floor among ``runs`` (:data:`~mmplan.reproduce.published.FLOOR_TWINS`)."""
+    names = row.ref.measure.runs
+    if not any(n in FLOOR_TWINS and no_floor(n) in runs for n in names):
+        return row
+    twins = tuple(no_floor(n) if n in FLOOR_TWINS else n for n in names)
+    twin_ref = replace(row.ref, measure=replace(row.ref.measure, runs=twins))
+    return replace(row, without_floor=evaluate(twin_ref, runs))
 
 
 def _measure(ref: Reference, runs: Mapping[str, RunFiles]) -> Value:

@@ -45,12 +45,14 @@ class Variant:
         base: Built-in scenario it derives from; the variant runs whenever its base does.
         planner: Planner settings that replace the base scenario's.
         note: What the variant switches off, and why.
+        scenario: Top-level scenario keys that replace the base scenario's (``ground``).
     """
 
     name: str
     base: str
     planner: Mapping[str, Any]
     note: str
+    scenario: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
 
 
 VARIANTS: tuple[Variant, ...] = (
@@ -62,6 +64,31 @@ VARIANTS: tuple[Variant, ...] = (
             MappingProxyType({"b_obs": 0.0, "stop_on_collision": False}),
             "virtual impedance off (b_obs = 0), not stopped at contact: the reference runs "
             "[RefRuns] compare the platform-obstacle distance with and without it"),
+)
+
+
+#: Paper scenarios planned a second time without the floor (``ground: null``): the papers have
+#: no floor, ours is an obstacle (docs/conventions.md, "Floor"). Every row that reads one of
+#: them gets a note with its value without the floor (:func:`no_floor`), so that the table
+#: explains any change the floor makes. The extended-Jacobian runs: the only paper plans that
+#: come near the floor (youbot3r: the arm 9 cm below it without the floor); the other methods'
+#: paper plans are bit-identical with and without it.
+FLOOR_TWINS: tuple[str, ...] = (
+    "youbot3r-obstacles-unlimited", "youbot3r-obstacles-torque-unlimited",
+    "youbot4r-reach-unlimited", "youbot4r-reach-smooth-unlimited",
+)
+
+
+def no_floor(run: str) -> str:
+    """Name of the run without the floor of a run in :data:`FLOOR_TWINS`."""
+    return f"{run}-no-floor"
+
+
+VARIANTS += tuple(
+    Variant(no_floor(name), name, MappingProxyType({}),
+            "without the floor (ground: null), as in the paper: the table's floor notes",
+            MappingProxyType({"ground": None}))
+    for name in FLOOR_TWINS
 )
 
 

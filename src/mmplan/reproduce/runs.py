@@ -20,6 +20,7 @@ class RunSpec:
     base: str | None = None
     planner: dict[str, Any] | None = None
     note: str = ""
+    scenario: dict[str, Any] | None = None  # top-level keys replaced (a variant's ``ground``)
 
 
 @dataclass(frozen=True)

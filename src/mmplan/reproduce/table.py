@@ -19,7 +19,13 @@ from mmplan.io.plan_folder import read_summary
 from mmplan.reproduce.evaluate import Evaluated, Value
 from mmplan.reproduce.runs import RunOutcome
 
-HEADER = ("paper figure", "quantity", "paper", "ours", "difference", "verdict")
+HEADER = ("paper figure", "quantity", "paper", "ours", "difference", "verdict", "floor note")
+#: What the floor notes mean (the papers have no floor; ours is an obstacle).
+FLOOR_TEXT = ("Floor notes: the papers plan without a floor; in mmplan the ground z = 0 is an "
+              "obstacle for every body whose height depends on the arm (docs/conventions.md, "
+              "\"Floor\"). The extended-Jacobian paper scenarios are also planned without it "
+              "(`ground: null`, runs `*-no-floor`); a row that reads one of them gives its value "
+              "without the floor when the floor changes it, or says it does not.")
 RUN_HEADER = ("scenario", "paper", "status", "T(tol)", "compute time", "wall time", "report")
 
 
@@ -62,9 +68,29 @@ def link_of(run: RunOutcome | None) -> str | None:
     return f"{run.spec.name}/summary.json"
 
 
-def _cells(row: Evaluated) -> tuple[str, str, str, str, str]:
+def floor_note(row: Evaluated) -> str:
+    """What the floor changes in a row (empty when it has no run without the floor)."""
+    twin = row.without_floor
+    if twin is None:
+        return ""
+    if not row.floor_changed:
+        return "floor: no change (the same without it)"
+    if twin.ours is None:
+        return f"floor: without it {twin.verdict}"
+    change = ""
+    if isinstance(row.ours, float) and isinstance(twin.ours, float):
+        delta = row.ours - twin.ours
+        change = (f"{100 * delta:+.3g} points" if row.ref.unit == "%"
+                  else f"{delta:+.3g} {row.ref.unit}".strip())
+        change = f"; the floor changes it by {change}"
+    return (f"floor: {fmt_value(twin.ours, row.ref.unit)} without it (ground: null, as in "
+            f"the paper; verdict {twin.verdict}){change}")
+
+
+def _cells(row: Evaluated) -> tuple[str, str, str, str, str, str]:
     return (row.ref.quantity, row.ref.paper_text or fmt_value(row.ref.paper, row.ref.unit),
-            fmt_value(row.ours, row.ref.unit), fmt_difference(row), row.verdict)
+            fmt_value(row.ours, row.ref.unit), fmt_difference(row), row.verdict,
+            floor_note(row))
 
 
 def _md_cell(text: str) -> str:
@@ -85,11 +111,11 @@ def markdown(runs: Sequence[RunOutcome], rows: Sequence[Evaluated], wall_s: floa
         "| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER),
     ]
     for row in rows:
-        quantity, paper, ours, diff, verdict = (_md_cell(c) for c in _cells(row))
+        quantity, paper, ours, diff, verdict, note = (_md_cell(c) for c in _cells(row))
         link = link_of(by_name.get(row.run))
         target = f"[{row.run}]({link})" if link else row.run
         lines.append(f"| {_md_cell(row.ref.figure)} | {quantity}, {target} | {paper} | {ours} "
-                     f"| {diff} | {verdict} |")
+                     f"| {diff} | {verdict} | {note} |")
     lines += ["", "## Runs", "", "| " + " | ".join(RUN_HEADER) + " |",
               "|" + "---|" * len(RUN_HEADER)]
     for run in runs:
@@ -98,6 +124,8 @@ def markdown(runs: Sequence[RunOutcome], rows: Sequence[Evaluated], wall_s: floa
                      + (f"[{'report' if run.report else 'summary'}]({link})" if link else "-")
                      + " |")
     lines += ["", "## Sources and notes", ""]
+    if any(row.without_floor is not None for row in rows):
+        lines += [FLOOR_TEXT, ""]
     for i, row in enumerate(rows, 1):
         note = f"{i}. {row.ref.figure}, {row.ref.quantity}: {row.ref.source}."
         if row.ref.known_gap:
@@ -152,11 +180,12 @@ def page(runs: Sequence[RunOutcome], rows: Sequence[Evaluated], wall_s: float) -
             f"{len(runs)} runs in {wall_s:.0f} s wall time.</p><table><tr>"
             + "".join(f"<th>{e(h)}</th>" for h in HEADER) + "</tr>"]
     for row in rows:
-        quantity, paper, ours, diff, verdict = _cells(row)
+        quantity, paper, ours, diff, verdict, note = _cells(row)
         link = link_of(by_name.get(row.run))
         body.append(f'<tr class="{_css_class(verdict)}"><td>{e(row.ref.figure)}</td><td>'
                     f"{e(quantity)}, {anchor(row.run, link)}</td><td>{e(paper)}</td><td>"
-                    f"{e(ours)}</td><td>{e(diff)}</td><td>{e(verdict)}</td></tr>")
+                    f"{e(ours)}</td><td>{e(diff)}</td><td>{e(verdict)}</td><td>{e(note)}"
+                    "</td></tr>")
     body.append("</table><h2>Runs</h2><table><tr>"
                 + "".join(f"<th>{e(h)}</th>" for h in RUN_HEADER) + "</tr>")
     for run in runs:
@@ -164,7 +193,10 @@ def page(runs: Sequence[RunOutcome], rows: Sequence[Evaluated], wall_s: float) -
         body.append(f'<tr class="{cls}">' + "".join(f"<td>{e(c)}</td>" for c in _run_cells(run))
                     + f"<td>{anchor('report' if run.report else 'summary', link_of(run))}"
                       "</td></tr>")
-    body.append("</table><h2>Sources and notes</h2><ol>")
+    body.append("</table><h2>Sources and notes</h2>")
+    if any(row.without_floor is not None for row in rows):
+        body.append(f"<p>{e(FLOOR_TEXT)}</p>")
+    body.append("<ol>")
     body += [f"<li>{e(r.ref.figure)}, {e(r.ref.quantity)}: {e(r.ref.source)}"
              + (f". Expected difference: {e(r.ref.known_gap)}" if r.ref.known_gap else "")
              + "</li>" for r in rows]

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mmplan.arrays import Array
-from mmplan.errors import InputError, ModelError
+from mmplan.errors import InputError, ModelError, require
 from mmplan.robot import dynamics
 from mmplan.robot.bases import Platform
 from mmplan.robot.limits import Limits
@@ -117,6 +117,10 @@ class Robot:
         friction: Mapping[str, dynamics.Friction] | None = None,
         description: str = "",
     ) -> None:
+        for key, value, kind in (("name", name, str), ("platform", platform, Platform),
+                                 ("end_effector", end_effector, EndEffector),
+                                 ("limits", limits, Limits), ("description", description, str)):
+            require(value, kind, key, f"a {kind.__name__}")
         self.name = name
         self.description = description
         self.platform = platform
@@ -163,6 +167,11 @@ class Robot:
             ("limits.joints", limits.joint_min, limits.joint_max),
             ("limits.torque", limits.torque_min, limits.torque_max),
         ):
+            for side, values, wrong in (("min", lo, np.inf), ("max", hi, -np.inf)):
+                empty = np.flatnonzero(np.asarray(values) == wrong)
+                if empty.size:
+                    raise InputError(f"{key}.{side}[{int(empty[0])}]",
+                                     f"a {side} of {wrong} admits no value")
             bad = np.flatnonzero(np.asarray(lo) > np.asarray(hi))
             if bad.size:
                 i = int(bad[0])

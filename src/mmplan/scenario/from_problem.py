@@ -3,8 +3,8 @@
 :func:`scenario_from_problem` records what ``mmplan check`` needs to rebuild the problem: the
 robot (a built-in robot's name, or the arguments a URDF robot was loaded with:
 :func:`~mmplan.scenario.robot_entry.record_robot`), its effective limits, the start, the task
-as a goal, the obstacles and the planner settings. :func:`~mmplan.io.plan_folder.write_plan`
-uses it when it is given no scenario.
+as a goal, the obstacles, the floor height and the planner settings.
+:func:`~mmplan.io.plan_folder.write_plan` uses it when it is given no scenario.
 """
 
 from __future__ import annotations
@@ -65,6 +65,7 @@ def scenario_from_problem(problem: Problem, name: str = "python",
         "start": _list(problem.start),
         "goal": goal_dict(problem.task),
         "obstacles": [o.to_dict() for o in problem.scene.obstacles],
+        "ground": problem.scene.ground,
         "limits": limits_dict(robot),
         "planner": problem.settings.model_dump(mode="json"),
     }

@@ -6,6 +6,7 @@ coordinate names) live in :mod:`mmplan.scenario.loader` and :mod:`mmplan.scenari
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, Field, model_validator
@@ -13,19 +14,53 @@ from pydantic import AfterValidator, Field, model_validator
 from mmplan.scenario.schema_types import Bound, JointBound, Strict, fail, in_range
 
 
-class JointRangeSpec(Strict):
+def _lower(value: float) -> float:
+    if value == math.inf:
+        raise ValueError("a lower limit of +inf admits no value; use -.inf for none")
+    return value
+
+
+def _upper(value: float) -> float:
+    if value == -math.inf:
+        raise ValueError("an upper limit of -inf admits no value; use .inf for none")
+    return value
+
+
+#: Sides of a range: finite, or infinite on their own side only (-inf below, +inf above).
+JointLower = Annotated[JointBound, AfterValidator(_lower)]
+JointUpper = Annotated[JointBound, AfterValidator(_upper)]
+Lower = Annotated[Bound, AfterValidator(_lower)]
+Upper = Annotated[Bound, AfterValidator(_upper)]
+
+
+class _Range(Strict):
+    """A range given by its sides; where both are given, min <= max entry by entry."""
+
+    min: list[float] | None = None
+    max: list[float] | None = None
+
+    @model_validator(mode="after")
+    def _ordered(self) -> _Range:
+        if self.min is not None and self.max is not None:
+            for i, (lo, hi) in enumerate(zip(self.min, self.max, strict=False)):
+                if lo > hi:
+                    raise fail(f"min[{i}]", f"min {lo:g} > max {hi:g}")
+        return self
+
+
+class JointRangeSpec(_Range):
     """Arm joint limits [rad or m]; a missing side keeps the robot's default; ``-.inf`` /
     ``.inf`` for none (a continuous joint)."""
 
-    min: list[JointBound] | None = None
-    max: list[JointBound] | None = None
+    min: list[JointLower] | None = None
+    max: list[JointUpper] | None = None
 
 
-class TorqueRangeSpec(Strict):
+class TorqueRangeSpec(_Range):
     """Actuator effort limits [N m or N]; ``.inf`` allowed; the string ``unlimited`` too."""
 
-    min: list[Bound] | None = None
-    max: list[Bound] | None = None
+    min: list[Lower] | None = None
+    max: list[Upper] | None = None
     unlimited: bool = False
 
     @model_validator(mode="before")

@@ -1,7 +1,8 @@
 """Scenario files: loading, validation against the robot and planner, building a Problem.
 
 A scenario file (YAML, docs/conventions.md; schema in :mod:`mmplan.scenario.schema`) names a
-built-in robot, a start configuration, a goal, obstacles, optional limits (joint ranges,
+built-in robot, a start configuration, a goal, obstacles, the floor height (``ground``),
+optional limits (joint ranges,
 efforts, velocities and accelerations: :mod:`mmplan.scenario.rates`) and the planner
 settings. :func:`load_scenario` validates everything that can be known before planning and
 raises :class:`ScenarioError` (an :class:`~mmplan.errors.InputError`, exit code 2) whose
@@ -21,7 +22,7 @@ import yaml
 from pydantic import ValidationError
 
 from mmplan.arrays import Array
-from mmplan.errors import InputError, MmplanError
+from mmplan.errors import InputError, MmplanError, path_argument, require
 from mmplan.planners import methods, settings_model
 from mmplan.problem import PlannerSettings, Problem
 from mmplan.robot import Limits, Robot
@@ -57,7 +58,9 @@ def load_scenario(name_or_path: str | Path, *, require_planner: bool = True,
     Raises:
         ScenarioError: the file is missing, larger than 10 MB, not YAML, or fails validation.
     """
-    path = Path(name_or_path)
+    path = path_argument(name_or_path, "scenario")
+    require(require_planner, bool, "require_planner", "True or False")
+    require(check_start, bool, "check_start", "True or False")
     source = str(name_or_path)
     if not _is_file(path):
         builtins = builtin_scenarios()
@@ -76,7 +79,7 @@ def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
     Raises:
         ScenarioError: missing file, malformed YAML, or no robot / planner.method.
     """
-    source = str(name_or_path)
+    source = str(path_argument(name_or_path, "scenario"))
     path = builtin_scenarios().get(source, Path(name_or_path))
     data = parse_yaml(read_text(path, source), source)
     planner = data.get("planner")
@@ -131,7 +134,7 @@ class Scenario:
             self.planner_validated = str(spec.planner["method"]) in methods()
             self.task: Task = _task(spec.goal)
             self.scene = Scene(tuple(_obstacle(o.model_dump(exclude_none=True), i)
-                                     for i, o in enumerate(spec.obstacles)))
+                                     for i, o in enumerate(spec.obstacles)), spec.ground)
             if check_start:
                 check_start_pose(self.robot, self.scene, self.start,
                                  by_name=isinstance(spec.start, dict))
@@ -176,6 +179,7 @@ class Scenario:
             "goal": self.spec.goal.model_dump(mode="python", exclude_none=True),
             "obstacles": [_shape_first(o.model_dump(mode="python", exclude_none=True))
                           for o in self.spec.obstacles],
+            "ground": self.scene.ground,
             "limits": limits_dict(self.robot),
             "planner": (self.settings.model_dump(mode="json") if self.planner_validated
                         else dict(self.spec.planner)),

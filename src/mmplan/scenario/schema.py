@@ -11,7 +11,10 @@ Top-level keys: ``name``, ``robot`` (a built-in robot's name, or a URDF robot
 ``start`` (q0: a list in the robot's coordinate order, ``mmplan robots`` lists them, or a
 mapping ``{name: value}`` whose missing coordinates take their defaults,
 :mod:`mmplan.scenario.start`), ``goal``, ``obstacles`` (default none), ``limits`` (optional),
-``planner`` (``method`` plus that method's settings; unknown keys are errors).
+``planner`` (``method`` plus that method's settings; unknown keys are errors), ``ground``
+(height h [m] of the floor z = h, default 0.0, |h| <= 100; ``null``: no floor; the floor is an
+obstacle for every collision sphere whose height depends on the arm,
+:mod:`mmplan.robot.ground`).
 
 Goal forms (exactly one of ``position``, ``path``, ``segment``; plus ``tolerance`` [m],
 default 0.001):
@@ -70,6 +73,7 @@ from mmplan.scenario.schema_types import (
     Vec3,
     fail,
 )
+from mmplan.scene.scene import MAX_GROUND_M
 
 
 # ------------------------------------------------------------------ obstacles
@@ -184,6 +188,9 @@ class GoalSpec(Strict):
 
 
 # ------------------------------------------------------------------ scenario
+#: ``ground``: the floor height [m], finite, |h| <= MAX_GROUND_M (``null``: no floor).
+Ground = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-MAX_GROUND_M,
+                                le=MAX_GROUND_M)]
 #: ``start`` as a mapping: coordinate name -> value [m or rad].
 StartMapping = dict[Annotated[str, Field(strict=True, min_length=1)], Finite]
 _START_LIST: TypeAdapter[list[float]] = TypeAdapter(list[Finite])
@@ -212,6 +219,7 @@ class ScenarioSpec(Strict):
     obstacles: list[AnyObstacle] = Field(default_factory=list)
     limits: LimitsSpec | None = None
     planner: dict[str, Any]
+    ground: Ground | None = 0.0
 
     @model_validator(mode="before")
     @classmethod

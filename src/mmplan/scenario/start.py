@@ -6,7 +6,8 @@ their **defaults**: 0 for the platform coordinates (x, y, heading, wheel angles,
 steering angle), and for an arm joint 0, or the limit nearest 0 when 0 is outside its range
 (the reference pose in which a URDF robot's self-collision pairs were chosen). Unknown names
 are errors that list the robot's coordinates. :func:`check_start_pose` then checks the start
-against the joint limits, the robot's self-collision pairs and the obstacles.
+against the joint limits, the robot's self-collision pairs, the floor (``ground``) and the
+obstacles.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.robot import Robot
+from mmplan.robot.ground import floor_clearances, ground_sphere_indices
 from mmplan.robot.self_collision import SelfCollision
 from mmplan.scene import Scene
 
@@ -53,8 +55,9 @@ def resolve_start(values: Sequence[float] | Mapping[str, float], robot: Robot) -
 
 
 def check_start_pose(robot: Robot, scene: Scene, start: Array, *, by_name: bool = False) -> None:
-    """Start inside the joint limits, free of self-collision (the robot's sphere pairs) and
-    collision-free (original obstacles, exact distance); ``by_name``: the start was given as
+    """Start inside the joint limits, free of self-collision (the robot's sphere pairs), above
+    the floor (the ground spheres, :mod:`mmplan.robot.ground`) and collision-free (original
+    obstacles, exact distance); ``by_name``: the start was given as
     a mapping (errors name ``start.<coordinate>``).
 
     Raises:
@@ -78,6 +81,8 @@ def check_start_pose(robot: Robot, scene: Scene, start: Array, *, by_name: bool 
             a, b = (robot.collision[int(i)].body for i in pairs.sphere_pairs[k])
             raise InputError("start", f"in self-collision: {a} and {b} overlap by "
                              f"{-gaps[k]:.4g} m (their collision spheres)")
+    if scene.ground is not None:
+        _check_floor(robot, scene.ground, start)
     if not scene.obstacles:
         return
     gap = scene.distances(points) - robot.collision_radii[:, None]  # (P, n_obs)
@@ -87,6 +92,17 @@ def check_start_pose(robot: Robot, scene: Scene, start: Array, *, by_name: bool 
         raise InputError("start", f"in collision: robot point {p} (on {robot.collision[p].body}, "
                          f"at ({x:.3f}, {y:.3f}, {z:.3f})) is {-gap[p, o]:.6g} m inside "
                          f"obstacles[{o}]")
+
+
+def _check_floor(robot: Robot, ground: float, start: Array) -> None:
+    """The start's ground spheres (:mod:`mmplan.robot.ground`) above the floor z = ground."""
+    gaps = floor_clearances(robot, start[None, :], ground)[0]  # (G,)
+    if gaps.size and gaps.min() < 0:
+        k = int(np.argmin(gaps))
+        i = ground_sphere_indices(robot)[k]
+        raise InputError("start", f"in collision with the floor: robot point {i} (on "
+                         f"{robot.collision[i].body}) is {-gaps[k]:.6g} m below the floor "
+                         f"z = {ground:g} (lower it or remove it with the scenario key ground)")
 
 
 __all__ = ["check_start_pose", "default_start", "resolve_start"]

@@ -13,6 +13,9 @@ from mmplan.errors import InputError
 from mmplan.scene.fields import Array, points_array
 from mmplan.scene.obstacle import Obstacle, obstacle_from_dict
 
+#: Largest floor height magnitude [m] (``Scene.ground``, scenario key ``ground``).
+MAX_GROUND_M = 100.0
+
 
 @dataclass(frozen=True)
 class Scene:
@@ -29,6 +32,11 @@ class Scene:
     ground: float | None = 0.0
 
     def __post_init__(self) -> None:
+        if isinstance(self.obstacles, str | bytes | Mapping) or not isinstance(
+            self.obstacles, Iterable
+        ):
+            raise InputError("obstacles", f"expected a sequence of Obstacle, got "
+                             f"{type(self.obstacles).__name__}")
         obstacles = tuple(self.obstacles)
         for i, obstacle in enumerate(obstacles):
             if not isinstance(obstacle, Obstacle):
@@ -39,9 +47,10 @@ class Scene:
                 raise InputError(
                     "ground", f"expected a height in m or None, got {type(self.ground).__name__}"
                 )
-            if not np.isfinite(self.ground) or abs(self.ground) > 100.0:
+            if not np.isfinite(self.ground) or abs(self.ground) > MAX_GROUND_M:
                 raise InputError(
-                    "ground", f"height must be finite and within 100 m, got {self.ground:.6g}"
+                    "ground", f"height must be finite and within {MAX_GROUND_M:g} m, "
+                    f"got {self.ground:.6g}"
                 )
             object.__setattr__(self, "ground", float(self.ground))
 

@@ -9,6 +9,9 @@ Pass criteria (:meth:`CheckReport.failures` names each one that fails):
 
 * finite values; ee columns equal FK(q) within ``EE_TOL``;
 * clearance >= 0 (robot collision spheres vs original obstacles);
+* floor clearance >= ``FLOOR_TOL`` (0 m) of the ground spheres above the floor z = h
+  (``Scene.ground``; none when it is None) at every sample and on the interpolated motion
+  between samples (:mod:`.floor`);
 * self-clearance >= 0 for robots with self-collision pairs (URDF robots: the robot's own
   :class:`~mmplan.robot.self_collision.SelfCollision` pairs and their sphere distances);
 * joint limits (arm coordinates) within ``LIMIT_TOL``; actuator efforts within ``TORQUE_TOL``,
@@ -38,13 +41,14 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.errors import InputError
+from mmplan.errors import InputError, require
 from mmplan.problem import Problem
 from mmplan.robot import Robot
 from mmplan.robot.tree import JointKind
 from mmplan.task import DrawSegment, Task, TrackPath, completion_time
 from mmplan.trajectory import Status, Trajectory
 from mmplan.verify.consistency import Consistency, check_consistency
+from mmplan.verify.floor import FLOOR_TOL, floor_clearance_over
 from mmplan.verify.rates import RateReport, check_rates
 from mmplan.verify.self_clearance import self_clearance_over
 
@@ -89,6 +93,9 @@ class CheckReport:
         status: The status claimed by the planner (None when not given).
         rates: Peaks of velocities and accelerations and the checks of their limits.
         consistency: Start, required columns, tau vs model, ddq vs the interpolant.
+        min_floor_clearance_m: Smallest height of the ground spheres above the floor
+            (:mod:`.floor`; samples and interpolated motion), None without a floor or
+            ground spheres; ``floor_where``: which sphere, when, and the floor height.
     """
 
     robot: str
@@ -121,6 +128,8 @@ class CheckReport:
     min_self_clearance_m: float | None = None
     self_clearance_where: str = ""
     consistency: Consistency = field(default_factory=Consistency)
+    min_floor_clearance_m: float | None = None
+    floor_where: str = ""
 
     @property
     def tau_model_deviation(self) -> float | None:
@@ -142,6 +151,9 @@ class CheckReport:
                        f"(> {EE_TOL:g} m)")
         if self.min_clearance_m is not None and not self.min_clearance_m >= 0:
             out.append(f"clearance: {self.min_clearance_m:.4g} m < 0, {self.clearance_where}")
+        floor = self.min_floor_clearance_m
+        if floor is not None and not floor >= FLOOR_TOL:
+            out.append(f"floor: clearance {floor:.4g} m < {FLOOR_TOL:g} m, {self.floor_where}")
         if self.min_self_clearance_m is not None and not self.min_self_clearance_m >= 0:
             out.append(f"self-collision: {self.min_self_clearance_m:.4g} m < 0, "
                        f"{self.self_clearance_where}")
@@ -164,7 +176,7 @@ class CheckReport:
             return out
         # "reached" needs the task completed; another status with the task completed is
         # honest only when the plan breaks something else (a limit, a collision, ...).
-        reached = self.status == "reached"
+        reached = self.status == Status.REACHED
         if self.status is not None and (
             (reached and not self.task_completed)
             or (not reached and self.task_completed and not out)
@@ -187,6 +199,7 @@ class CheckReport:
             "final_error_m": self.final_error_m,
             "min_clearance_m": self.min_clearance_m,
             "min_self_clearance_m": self.min_self_clearance_m,
+            "min_floor_clearance_m": self.min_floor_clearance_m,
             "max_joint_limit_violation": self.max_joint_limit_violation,
             "max_torque_violation": self.max_torque_violation,
             "max_pfaffian_residual": self.max_pfaffian_residual,
@@ -241,8 +254,18 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
     Args:
         trajectory: The trajectory to check (its q, dq, ddq, tau, ee columns).
         problem: The problem it claims to solve.
-        status: The status the planner reported; checked against the task when given.
+        status: The status the planner reported (a :class:`Status` or its string, as read
+            from a summary.json); checked against the task when given: a string that is no
+            status is a failed check, not an error (it is the claim being judged).
+
+    Raises:
+        InputError: an argument of another type, or a trajectory of another robot.
     """
+    require(trajectory, Trajectory, "trajectory", "a Trajectory")
+    require(problem, Problem, "problem", "a Problem (Scenario.build())")
+    if status is not None and not isinstance(status, str):
+        raise InputError("status", f"expected a Status, its string or None, got "
+                         f"{type(status).__name__}")
     robot, tr = problem.robot, trajectory
     if tr.coordinates != robot.coordinates:
         raise InputError("trajectory", f"coordinates {tr.coordinates} do not match robot "
@@ -265,6 +288,7 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
                            f"(on {robot.collision[point].body}) at t = {t[sample]:.4g} s")
 
     self_clearance, self_where = self_clearance_over(robot, q, t)
+    floor, floor_where = floor_clearance_over(robot, problem.scene.ground, t, q, dq)
 
     lim = robot.limits
     arm = list(robot.arm_indices)
@@ -312,6 +336,7 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
         manipulability_min=float(np.min(mu)), status=None if status is None else str(status),
         min_self_clearance_m=self_clearance, self_clearance_where=self_where,
         rates=rates, consistency=check_consistency(tr, problem, tau_model),
+        min_floor_clearance_m=floor, floor_where=floor_where,
     )
 
 

@@ -23,7 +23,7 @@ ABS_TOL = 1e-9
 #: Numeric contract keys recomputed by the checker (None allowed where the checker gives None).
 NUMERIC_KEYS = (
     "duration_s", "duration_1cm_s", "duration_1mm_s", "final_error_m", "min_clearance_m",
-    "min_self_clearance_m",
+    "min_self_clearance_m", "min_floor_clearance_m",
     "max_joint_limit_violation", "max_torque_violation", "max_pfaffian_residual",
     "manipulability_start", "manipulability_end", "manipulability_min",
     "peak_platform_speed_mps", "peak_platform_yaw_rate_radps", "peak_platform_acceleration_mps2",

@@ -24,6 +24,8 @@ from mmplan.planners.extended_jacobian.generator import (
     wheel_metric_inverse,
 )
 from mmplan.planners.extended_jacobian.obstacles import ObstacleTerm, obstacle_penalty
+from mmplan.planners.extended_jacobian.parameters import ParameterLayout, slots_for
+from mmplan.planners.extended_jacobian.slots import slot_terms
 from mmplan.planners.extended_jacobian.step import CHUNK, build_chunk_flat
 from mmplan.robot.library import youbot_3r
 from mmplan.robot.robot import Robot
@@ -33,7 +35,7 @@ from mmplan.scene.smooth_model import SuperellipsoidModel, power_sym
 Array = np.ndarray
 VARRHO = 1.7
 DELTA = 0.3
-PARAMS = np.array([3.5, 4.0, 0.16, 1.75, 2.78, 1.0])  # p_f, Lambda_P, Lambda_V, Lambda_II
+GOAL, GAINS = np.array([3.5, 4.0, 0.16]), np.array([1.75, 2.78, 1.0])  # p_f, Lambdas
 Setup = tuple[Robot, list[ObstacleTerm], Array]
 Generator = tuple[GeneratorFunctions, dict[str, ca.Function]]
 YAWED = SuperellipsoidModel((0.9, 1.7, 0.3), (0.35, 0.15, 0.3), (0.5, 0.3), 0.6)
@@ -132,9 +134,15 @@ def test_culled_obstacle_terms_equal_the_full_sum(setup: Setup, rng: np.random.G
     P = _projector(robot)
     G = np.ones(n)
     G[list(robot.arm_indices)] = 0.3
-    terms, damping = ej_obstacles.obstacle_functions(robot, obstacles, P, G, VARRHO)
+    layout = ParameterLayout(slots_for([_model(ob).exponents for ob in obstacles]))
+    params = layout.pack(GOAL, GAINS, [(ob.model, ob.influence) for ob in obstacles])
+    assert layout.n_slots > len(obstacles)  # parked slots too
+    slots = slot_terms(robot, layout)  # the floor is off (parked)
+    terms, damping = ej_obstacles.obstacle_functions(robot, slots, layout.size, P, G, VARRHO)
+    # the reference: the scene's own models with their numbers built in
     K = obstacle_penalty(s.collision_points, obstacles)
-    ref = ca.Function("ref", [s.q], [VARRHO * K, P @ (-VARRHO * (ca.DM(G) * ca.gradient(K, s.q)))])
+    gK = ca.gradient(K, s.q)
+    ref = ca.Function("ref", [s.q], [VARRHO * K, P @ (-VARRHO * (ca.DM(G) * gK)), gK])
     groups = ej_obstacles.point_groups(robot)
     local = [np.array([robot.collision[i].center for i in g]) for g in groups]
     radii = [
@@ -145,12 +153,12 @@ def test_culled_obstacle_terms_equal_the_full_sum(setup: Setup, rng: np.random.G
         for loc, g in zip(local, groups, strict=True)
     ]
     active = culled = mixed = nonzero = 0
-    params = np.zeros(ej_obstacles.N_PARAMS)  # unused without ``applied``
     for q in _configs(robot, obstacles, rng, 80):
-        S_c, fp_c = (np.asarray(v, dtype=float).ravel() for v in terms(q, params))
-        S_r, fp_r = (np.asarray(v, dtype=float).ravel() for v in ref(q))
+        S_c, fp_c, gK_c = (np.asarray(v, dtype=float).ravel() for v in terms(q, params))
+        S_r, fp_r, gK_r = (np.asarray(v, dtype=float).ravel() for v in ref(q))
+        np.testing.assert_allclose(gK_c, gK_r, rtol=1e-12, atol=1e-12 * np.abs(gK_r).max())
         np.testing.assert_allclose(S_c, S_r, rtol=1e-12, atol=0.0)
-        np.testing.assert_allclose(float(damping(q)), S_r[0], rtol=1e-12, atol=0.0)
+        np.testing.assert_allclose(float(damping(q, params)), S_r[0], rtol=1e-12, atol=0.0)
         np.testing.assert_allclose(fp_c, fp_r, rtol=1e-12, atol=1e-12 * np.abs(fp_r).max())
         nonzero += S_r[0] > 0
         pts = robot.collision_points(q)
@@ -176,7 +184,7 @@ def generator(
     ``compile_library`` would compile: captured here, not compiled (it returns None); the
     reference record step and chunk as ``ref_record``, ``ref_chunk``."""
     robot, obstacles, start = setup
-    crit = build_criterion(robot, choose_partition(robot, start), 0.01)
+    crit = build_criterion(robot, choose_partition(robot, start), 0.01, parametric=True)
     made: dict[str, ca.Function] = {}
 
     def capture(functions: Callable[[], list[ca.Function]], *args: Any, **kwargs: Any) -> None:
@@ -187,8 +195,17 @@ def generator(
         fns = build_functions(robot, crit, obstacles, VARRHO, 0.3, codegen=True)
     assert not fns.compiled and made["mmplan_ej_record_step"].class_name() == "MXFunction"
     assert fns.record is not None and fns.chunk is not None
+    assert fns.layout.n_arm == 3  # the partition is a parameter
     made.update(ref_record=fns.record, ref_chunk=fns.chunk)
     return fns, made
+
+
+def _params(fns: GeneratorFunctions, setup: Setup) -> Array:
+    """p of the generator fixture's scene: the obstacles, a floor 5 cm below z = 0."""
+    robot, obstacles, start = setup
+    pairs = [(ob.model, ob.influence) for ob in obstacles]
+    part = choose_partition(robot, start)
+    return fns.layout.pack(GOAL, GAINS, pairs, (-0.05, 0.2), part)
 
 
 def _states(setup: Setup, fns: GeneratorFunctions, k: int) -> Iterator[tuple[Array, Array]]:
@@ -197,17 +214,18 @@ def _states(setup: Setup, fns: GeneratorFunctions, k: int) -> Iterator[tuple[Arr
     robot, obstacles, _ = setup
     rng = np.random.default_rng(7)
     n, found = robot.n, 0
+    params = _params(fns, setup)
     for q in _configs(robot, obstacles, rng, 200):
         dq = 0.4 * rng.normal(size=n)
         if found == k:
             return
         pts = robot.collision_points(q)
         clear = min(float(ob.model.radial_distance(pts).min()) for ob in obstacles)
-        if clear < 0.05 or fns.evaluate(q, dq, PARAMS).S <= 0:
+        if clear < 0.05 or fns.evaluate(q, dq, params).S <= 0:
             continue
         found += 1
         par = np.concatenate(
-            [PARAMS, [rng.uniform(0, 1), rng.uniform(0.5, 1)], 0.3 * rng.normal(size=n), [0.01]]
+            [params, [rng.uniform(0, 1), rng.uniform(0.5, 1)], 0.3 * rng.normal(size=n), [0.01]]
         )
         yield np.concatenate([q, dq]), par
     assert found == k
@@ -216,13 +234,13 @@ def _states(setup: Setup, fns: GeneratorFunctions, k: int) -> Iterator[tuple[Arr
 def test_culled_record_step_equals_the_reference(setup: Setup, generator: Generator) -> None:
     fns, made = generator
     culled, culled_step = made["mmplan_ej_record_step"], made["mmplan_ej_step_flat"]
-    n = fns.n
+    n, k = fns.n, fns.layout.size
     for x, par in _states(setup, fns, 12):
         ref = [np.asarray(v).ravel() for v in made["ref_record"](x, par)]
         got = [np.asarray(v).ravel() for v in culled(x, par)]
         for a, b in zip(got, ref, strict=True):
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
-        flat = np.concatenate([x, par[6 : 8 + n], par[:6], par[-1:]])
+        flat = np.concatenate([x, par[k : k + 2 + n], par[:k], par[-1:]])
         plain = np.asarray(fns.step_flat(flat)).ravel()  # five-evaluation reference step
         np.testing.assert_allclose(
             np.asarray(culled_step(flat)).ravel(),
@@ -235,10 +253,10 @@ def test_culled_record_step_equals_the_reference(setup: Setup, generator: Genera
 
 def test_step_projects_the_velocity_into_ker_a(setup: Setup, generator: Generator) -> None:
     fns, made = generator
-    robot, n = setup[0], fns.n
+    robot, n, k = setup[0], fns.n, fns.layout.size
     for x, par in _states(setup, fns, 6):
         assert np.linalg.norm(robot.pfaffian(x[:n]) @ x[n:]) > 0.05  # start violates A dq = 0
-        flat = np.concatenate([x, par[6 : 8 + n], par[:6], par[-1:]])
+        flat = np.concatenate([x, par[k : k + 2 + n], par[:k], par[-1:]])
         outs = [np.asarray(fns.step_flat(flat)).ravel()]
         outs += [
             np.asarray(f(x, par)[0]).ravel()
@@ -253,7 +271,7 @@ def test_chunk_flat_is_the_chunk_plus_e(setup: Setup, generator: Generator) -> N
     """chunk_flat = [vec X; vec REC; vec E(q0); vec EFF], EFF = [Tm dq; Tg] at each step's
     start, checked against the reference ``terms`` (independent of the ``effort`` function)."""
     fns, made = generator
-    n = fns.n
+    n, k = fns.n, fns.layout.size
     x, par = next(_states(setup, fns, 1))
     ref_flat = build_chunk_flat(made["ref_chunk"], fns.E, fns.effort)
     pairs = [
@@ -263,11 +281,11 @@ def test_chunk_flat_is_the_chunk_plus_e(setup: Setup, generator: Generator) -> N
     for flat, chunk, record in pairs:
         X, REC = (np.asarray(v) for v in chunk(x, par))
         assert X.shape == (2 * n, CHUNK)
-        E0 = np.asarray(fns.E(x[:n], par[:6]))
+        E0 = np.asarray(fns.E(x[:n], par[:k]))
         starts = np.column_stack([x, X[:, :-1]])
         eff = []
         for col in starts.T:
-            terms = fns.evaluate(col[:n], col[n:], par[:6])
+            terms = fns.evaluate(col[:n], col[n:], par[:k])
             eff.append(np.concatenate([terms.Tm @ col[n:], terms.Tg]))
         expected = np.concatenate([X.ravel(order="F"), REC.ravel(order="F"), E0.ravel(order="F")])
         got = np.asarray(flat(np.concatenate([x, par]))).ravel()
@@ -316,19 +334,24 @@ def test_generator_cache(setup: Setup, fresh_cache: None) -> None:
         obs: list[ObstacleTerm] = obstacles,
         varrho: float = 1.0,
     ) -> ej_cache.Built:
-        return ej_cache.generator(rob, part, obs, 0.01, varrho, 0.3, False)
+        slots = slots_for([_model(ob).exponents for ob in obs])
+        return ej_cache.generator(rob, part, slots, 0.01, varrho, 0.3, False)
 
     first = build()
     assert not first.cached and first.build_time > 0
     again = build()
     assert again.cached and again.build_time == 0.0 and again.fns is first.fns
-    assert (
-        build(obs=[ObstacleTerm(o.model, o.influence) for o in obstacles]).fns is first.fns
-    )  # equal scene
-    other_part = Partition((0, 1, 2, 3, 4, 7), (5, 6))
-    assert other_part != part
-    for built in (build(rob=youbot_3r.build()), build(obs=obstacles[:2]), build(part=other_part)):
+    moved = [  # another scene of the same shape types: the same function
+        ObstacleTerm(SuperellipsoidModel((9.0, 1.0, 0.2), (0.1, 0.2, 0.3), m.exponents), 0.1)
+        for m in (_model(o) for o in obstacles)
+    ]
+    assert build(obs=moved).fns is first.fns
+    other_part = Partition((0, 1, 2, 3, 4, 7), (5, 6))  # platform + q3: a value of p
+    assert other_part != part and build(part=other_part).fns is first.fns
+    built_in = Partition((0, 1, 2, 3, 5, 6), (4, 7))  # not platform + one arm joint
+    for built in (build(rob=youbot_3r.build()), build(obs=obstacles[:2]), build(part=built_in)):
         assert not built.cached and built.fns is not first.fns
+    assert first.fns.layout.n_arm == 3 and build(part=built_in).fns.layout.n_arm == 0
     assert build().cached
     ej_cache.clear()  # LRU: SIZE generators kept; the least recently used one is dropped
     keys = [1.0 + 0.1 * i for i in range(ej_cache.SIZE)]
@@ -352,7 +375,7 @@ def test_culled_record_step_near_the_goal_equals_the_reference(
     for x, par in _states(setup, fns, 12):
         par = par.copy()
         par[:3] = robot.ee_position(x[:n]) + np.array([0.05, -0.03, 0.02])  # goal 6 cm away
-        K = fns.evaluate(x[:n], x[n:], par[:6]).S / VARRHO
+        K = fns.evaluate(x[:n], x[n:], par[: fns.layout.size]).S / VARRHO
         projected += K < ej_nearpush.K_HI  # fade > 0: the projection acts
         ref = [np.asarray(v).ravel() for v in made["ref_record"](x, par)]
         got = [np.asarray(v).ravel() for v in made["mmplan_ej_record_step"](x, par)]

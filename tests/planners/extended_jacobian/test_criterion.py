@@ -42,6 +42,8 @@ class Ellipsoid:
     ) -> None:
         self.c = np.asarray(center)
         self.a = np.asarray(axes)
+        # what the generator's parameter vector takes of a model (parameters.py)
+        self.center, self.semi_axes, self.exponents, self.yaw = center, axes, (1.0, 1.0), 0.0
 
     def radial_distance_sym(self, p: ca.SX) -> ca.SX:
         d = (p - self.c) / self.a
@@ -127,7 +129,7 @@ def test_generator_realizes_error_dynamics(robot: Robot, crit) -> None:  # type:
     A = ca.Function("A", [crit.q], [crit.E[5:, :]])
     rng = np.random.default_rng(3)
     q, dq = _rand_state(rng)
-    p = np.concatenate([P_F, GAINS])
+    p = fns.layout.pack(P_F, GAINS)
     out = fns.terms(q, dq, p)
     ddq = np.asarray(out[0] + out[1]).ravel()
     h = 1e-4
@@ -171,7 +173,7 @@ def test_projector_push_damping_and_torque_split(robot: Robot, crit) -> None:  #
     fns = build_functions(robot, crit, [obstacle], varrho=1.0, arm_weight=0.3)
     q = Q0_3R.copy()
     dq = np.zeros(8)
-    p = np.concatenate([P_F, GAINS])
+    p = fns.layout.pack(P_F, GAINS, [(obstacle.model, obstacle.influence)])
     _f0, _fv, fp, S_, T0, Tm, err_, _Tg, gK = (np.asarray(x) for x in fns.terms(q, dq, p))
     S, err = S_.item(), err_.item()
     assert S > 0.0  # the start lies inside obstacle 1's neighbourhood
@@ -290,8 +292,10 @@ def test_structured_generator_terms_equal_the_reference(name: str) -> None:
     assert 2 * fns[0].record.n_instructions() < fns[1].record.n_instructions()
     for q in _states(robot, rng, 4):
         dq = rng.normal(size=robot.n)
-        p = np.concatenate([rng.normal(size=3), GAINS])
-        (f0, fv), (g0, gv) = ([np.asarray(x) for x in f.terms(q, dq, p)[:2]] for f in fns)
+        goal = rng.normal(size=3)
+        (f0, fv), (g0, gv) = (
+            [np.asarray(x) for x in f.terms(q, dq, f.layout.pack(goal, GAINS))[:2]] for f in fns
+        )
         assert _rel(f0, g0) < 1e-10 and _rel(fv, gv) < 1e-10
 
 

@@ -37,6 +37,8 @@ class Ellipsoid:
 
     def __init__(self, center: Sequence[float], axes: Sequence[float]) -> None:
         self.c, self.a = np.asarray(center, float), np.asarray(axes, float)
+        # what the generator's parameter vector takes of a model (parameters.py)
+        self.center, self.semi_axes, self.exponents, self.yaw = center, axes, (1.0, 1.0), 0.0
 
     def radial_distance_sym(self, p: ca.SX) -> ca.SX:
         return ca.norm_2(p - self.c) * (1 - ca.sumsqr((p - self.c) / self.a) ** (-0.5))
@@ -352,8 +354,8 @@ def test_chunked_fast_path_reproduces_the_step_by_step_loop(name: str, t_max: fl
     prep = ExtendedJacobian._prepare(problem)
     assert prep.fns.chunk is not None
     args = (prep.fns, problem.robot.pfaffian, wheel_metric_inverse(problem.robot), prep.q0)
-    fast = rollout(*args, prep.p_f, prep.options, fast=True)
-    ref = rollout(*args, prep.p_f, prep.options, fast=False)
+    fast = rollout(*args, prep.params, prep.options, fast=True)
+    ref = rollout(*args, prep.params, prep.options, fast=False)
     assert fast.status is ref.status and len(fast.t) == len(ref.t) > 200
     assert fast.info["chunked_samples"] > 0.9 * len(fast.t) and ref.info["chunked_samples"] == 0
     np.testing.assert_array_equal(fast.t, ref.t)
@@ -402,7 +404,9 @@ def test_online_step_is_one_call_that_matches_the_numpy_decision() -> None:
     prep = ExtendedJacobian._prepare(problem)
     winv = wheel_metric_inverse(robot)
     # The step-by-step loop decides every sample with NumPy (torque.decision.decide).
-    planned = rollout(prep.fns, robot.pfaffian, winv, prep.q0, prep.p_f, prep.options, fast=False)
+    planned = rollout(
+        prep.fns, robot.pfaffian, winv, prep.q0, prep.params, prep.options, fast=False
+    )
     online = ExtendedJacobian().online(problem)
     assert 0.0 < planned.u[-1] < 1.0  # the choice is exercised
     for k in range(len(planned.t)):

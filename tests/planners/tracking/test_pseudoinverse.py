@@ -313,7 +313,8 @@ def test_other_builtin_robots_track_a_line(name: str) -> None:
     lo, hi = robot.limits.joint_min, robot.limits.joint_max
     q0[list(robot.arm_indices)] = np.clip(0.3, lo + 0.1, hi - 0.1)
     task = LinePath(tuple(robot.ee_position(q0) + 0.01), (0.1, 0.05, 0.0), 3.0, 1e-3)
-    problem = Problem(robot, Scene(), task, q0, PseudoinverseSettings())
+    # no floor: with the arm at 0.3 rad the youBots' end effector is at the floor (z +-0.01 m)
+    problem = Problem(robot, Scene(ground=None), task, q0, PseudoinverseSettings())
     result = PseudoinversePlanner().plan(problem)
     assert result.status is Status.REACHED, result.message
     assert check(result.trajectory, problem, result.status.value).failures() == []

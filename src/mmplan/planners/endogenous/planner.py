@@ -17,6 +17,11 @@ start q0 and its arm part is the initial arm configuration x0 (the paper's examp
 q0 = (20, 0, pi/2, 0) and x0 = (0, 1, pi/2): start = (20, 0, pi/2, 0, 0, 1, pi/2)).
 Only ``lambda0`` is a planner setting. ``t_max`` is not used; the budget is
 ``max_iterations``. The planner has no obstacle model and refuses a scene with obstacles.
+The floor (``Scene.ground``): when the plan's arm comes closer than 1 cm to it, the iteration
+goes on from there with one more output, active while the arm's blend is below that margin
+(:mod:`~mmplan.planners.endogenous.floor`; a plan that keeps clear is the paper's, unchanged);
+a plan whose samples still reach below the floor is ``infeasible`` (info
+``min_floor_clearance_m``).
 
 Scenario form (docs/conventions.md, docs/endogenous.md)::
 
@@ -60,6 +65,7 @@ from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.endogenous.cache import get_model
 from mmplan.planners.endogenous.checks import check_problem
+from mmplan.planners.endogenous.floor import FloorOutput, floor_verdict, independent
 from mmplan.planners.endogenous.model import EndogenousModel
 from mmplan.planners.endogenous.output import ArmBox, build_trajectory, stretched, wrap_arm
 from mmplan.planners.endogenous.settings import EndogenousSettings
@@ -112,15 +118,33 @@ class EndogenousPlanner(Planner[EndogenousSettings, ReachPoint]):
                 f"(smallest singular value of J {s0[-1]:.3g}); choose another lambda0 "
                 "or start (controls that move the bounded coordinates)",
             )
+        floor = FloorOutput.of(robot, problem.scene.ground, start, model.times(), model.horizon,
+                               [robot.index(b.coordinate) for b in settings.bounds])
         run = _iterate(model, box, settings, qp0, lam0, xi0, yd, tol, bound_tol, progress)
+        if floor is not None and run.status is Status.REACHED and floor.row(box.to_x(run.x)):
+            # second phase (.floor): on from the plan that reaches below the floor margin
+            again = _iterate(model, box, settings, qp0, run.lam, run.x, yd, tol, bound_tol,
+                             None, floor)
+            again.errors[:0], again.task_errors[:0] = run.errors, run.task_errors
+            again.singular_values[:0] = run.singular_values
+            again.min_singular = min(again.min_singular, run.min_singular)
+            again.message += " (after lifting the arm off the floor)"
+            run = again
         return _result(problem, settings, model, box.to_x(run.x), run)
 
 
 def _evaluate(
-    model: EndogenousModel, box: ArmBox, qp0: Array, lam: Array, xi: Array, yd: Array
+    model: EndogenousModel, box: ArmBox, qp0: Array, lam: Array, xi: Array, yd: Array,
+    floor: FloorOutput | None = None,
 ) -> tuple[Array, Array]:
-    """e_r and J ([JaniakTchon] eqs. (19), (7)) in the iteration coordinates (lambda, xi)."""
+    """e_r and J ([JaniakTchon] eqs. (19), (7)) in the iteration coordinates (lambda, xi),
+    with the floor output's row appended while it is active (:mod:`.floor`)."""
     e, J = model.evaluate(qp0, lam, box.to_x(xi), yd)
+    active = floor.row(box.to_x(xi)) if floor is not None else None
+    if active is not None:
+        row = np.concatenate([np.zeros(model.n_lambda), active[1]])
+        if independent(J, row):  # else the other outputs already fix that direction
+            e, J = np.append(e, active[0]), np.vstack([J, row])
     J[:, model.n_lambda :] *= box.scale(xi)[None, :]
     return e, J
 
@@ -150,6 +174,7 @@ def _iterate(
     tol: float,
     bound_tol: float,
     progress: Progress,
+    floor: FloorOutput | None = None,
 ) -> _Run:
     """Theta-iteration [JaniakTchon] eqs. (14), (20) with explicit Euler step 1; sets status
     and message."""
@@ -158,7 +183,7 @@ def _iterate(
     first = None
     previous = (run.lam, run.x)
     for it in range(settings.max_iterations + 1):
-        e, J = _evaluate(model, box, qp0, run.lam, run.x, yd)
+        e, J = _evaluate(model, box, qp0, run.lam, run.x, yd, floor)
         norm = float(np.linalg.norm(e))
         first = norm if first is None else first
         if not (np.all(np.isfinite(e)) and np.all(np.isfinite(J))) or norm > 1e3 * max(first, 1):
@@ -253,6 +278,7 @@ def _result(
             f"[{limits.joint_min[outside[0]]:.4g}, {limits.joint_max[outside[0]]:.4g}]: "
             "add a planner bound on it"
         )
+    status, message, floor_info = floor_verdict(problem, q, traj.t, status, message)
     lam, factor = run.lam, 1.0
     if robot.limits.rates.any:
         factor = RateModel.of(robot).stretch(traj.t, traj.q, traj.dq, traj.ddq)
@@ -278,6 +304,7 @@ def _result(
         "error_norm": run.errors[-1],
         "bound_residual": float(np.linalg.norm(run.e[3:])) if model.n_b else 0.0,
         "min_singular_value": run.min_singular,
+        **floor_info,
     }
     for i, name in enumerate(robot.coordinates):
         info[f"max_abs.{name}"] = float(np.max(np.abs(q[:, i])))
@@ -300,3 +327,4 @@ def _result(
         history=history,
         artifacts={"lambda": lam, "x": x},
     )
+

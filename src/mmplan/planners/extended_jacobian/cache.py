@@ -1,10 +1,12 @@
 """Generator cache of the extended-Jacobian planner: build once, plan many times (speed).
 
 Building the generator (criterion, symbolic step, loading the compiled library) takes
-0.1-0.2 s, more than a whole compiled plan. It depends on the robot, the column partition,
-the obstacle models with their (goal-fitted) neighbourhoods and four settings, not on the
-start or the goal position (p_f is a parameter of the generator), so replanning with the
-same robot object and scene (the use in a control loop) reuses it. The robot is compared
+0.1-0.2 s, more than a whole compiled plan. It depends on the robot, the obstacle shape
+types and their slot counts and four settings, not on the scene: goal, obstacle centres,
+sizes, yaw and neighbourhoods, the floor and the column partition are numbers in its
+parameter vector (:mod:`~mmplan.planners.extended_jacobian.parameters`; a partition outside
+the parametric family is built in and is then part of the key), so replanning with the same
+robot object among moved obstacles (the use in a control loop) reuses it. The robot is compared
 by identity (held weakly, :mod:`mmplan.compile.model_cache`): a rebuilt robot, or a copy with
 other limits (``Robot.with_limits``: the joint limits enter the criterion), is a new key. At
 most ``SIZE`` generators are kept (LRU).
@@ -13,18 +15,21 @@ most ``SIZE`` generators are kept (LRU).
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from mmplan.compile.codegen import compiler
 from mmplan.compile.model_cache import ModelCache
+from mmplan.planners.extended_jacobian import compiled as ej_compiled
 from mmplan.planners.extended_jacobian.criterion import Partition, build_criterion
 from mmplan.planners.extended_jacobian.generator import (
+    AUTO_SIZE,
     GeneratorFunctions,
-    ObstacleTerm,
     build_functions,
 )
+from mmplan.planners.extended_jacobian.parameters import Shape
 from mmplan.robot.robot import Robot
 
 SIZE = 8
@@ -45,32 +50,59 @@ _CACHE: ModelCache[GeneratorFunctions] = ModelCache(SIZE)
 def generator(
     robot: Robot,
     partition: Partition,
-    obstacles: Sequence[ObstacleTerm],
+    slots: Sequence[tuple[Shape, int]],
     penalty_weight: float,
     varrho: float,
     arm_weight: float,
-    codegen: bool,
+    codegen: bool | None,
     posture: tuple[float, ...] | None = None,
     heading: float | None = None,
+    notify: Callable[[str], None] | None = None,
 ) -> Built:
-    """The generator functions of this robot, partition, obstacles, settings and criterion
-    terms (posture weight, heading reference: :mod:`~mmplan.planners.extended_jacobian.
-    posture`), cached."""
-    key = (tuple(partition.R), tuple(obstacles), penalty_weight, varrho, arm_weight, codegen,
-           posture, heading)
-    hit = _CACHE.get(robot, key)
-    if hit is not None:
-        return Built(hit, 0.0, True)
+    """The generator functions of this robot, obstacle slots, settings and criterion terms
+    (posture weight, whether there is a heading term: :mod:`~mmplan.planners.
+    extended_jacobian.posture`), cached; ``partition`` and ``heading`` (theta_ref) are
+    values of p, except a partition the layout cannot take (then it is built in)."""
+    model = (penalty_weight, varrho, arm_weight, posture, heading is not None)
+    key = (tuple(slots), codegen, *model)
+    for k in (key, (*key, tuple(partition.R))):
+        hit = _CACHE.get(robot, k)
+        if hit is not None and (len(k) > len(key) or hit.layout.supports(partition)):
+            return Built(hit, 0.0, True)
     clock = time.perf_counter()
-    crit = build_criterion(
-        robot,
-        partition,
-        penalty_weight,
-        posture=None if posture is None else np.asarray(posture),
-        heading=heading,
-    )
-    fns = build_functions(robot, crit, obstacles, varrho, arm_weight, codegen=codegen)
-    _CACHE.put(robot, key, fns)
+
+    def symbolic(disk_key: str | None = None, compiled: bool = False) -> GeneratorFunctions:
+        crit = build_criterion(
+            robot,
+            partition,
+            penalty_weight,
+            posture=None if posture is None else np.asarray(posture),
+            heading=heading,
+            parametric=True,
+        )
+        if disk_key is not None and not crit.sel.numel():  # the partition is built in
+            disk_key = ej_compiled.disk_key(robot, slots, model, partition.R)
+        return build_functions(
+            robot, crit, slots, varrho, arm_weight, compiled, notify, disk_key=disk_key,
+            max_size=AUTO_SIZE if codegen is None else None,
+        )  # fmt: skip
+
+    fns = None
+    if codegen is not False and compiler() is not None:
+        # a library compiled on an earlier run: loaded without building the model
+        for built_in in (None, partition.R):
+            dkey = ej_compiled.disk_key(robot, slots, model, built_in)
+            fns = ej_compiled.load(dkey, symbolic)
+            if fns is not None and (built_in is not None or fns.layout.supports(partition)):
+                break
+            fns = None
+        if fns is None:
+            fns = symbolic(ej_compiled.disk_key(robot, slots, model), compiled=True)
+    else:
+        if codegen is not False and notify is not None:
+            notify("no C compiler found: the generator runs on CasADi's virtual machine")
+        fns = symbolic()
+    _CACHE.put(robot, key if fns.layout.n_arm else (*key, tuple(partition.R)), fns)
     return Built(fns, time.perf_counter() - clock, False)
 
 

@@ -17,6 +17,7 @@ from mmplan.arrays import Array
 from mmplan.compile.model_cache import ModelCache
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions, ObstacleTerm
+from mmplan.robot.ground import ground_sphere_indices
 from mmplan.robot.robot import Robot
 
 #: Below this manipulability the start counts as singular.
@@ -100,11 +101,8 @@ def check_start_clearance(
             )
 
 
-def check_conditioning(
-    fns: GeneratorFunctions, q0: Array, p_f: Array, gains: Sequence[float], cond_limit: float
-) -> None:
-    """E(q0) must be well conditioned (eq. (16) needs E^-1)."""
-    p = np.concatenate([p_f, gains])
+def check_conditioning(fns: GeneratorFunctions, q0: Array, p: Array, cond_limit: float) -> None:
+    """E(q0) must be well conditioned (eq. (16) needs E^-1); p: the generator parameters."""
     E = np.asarray(fns.E(q0, p), dtype=float)
     cond = float(np.linalg.cond(E))
     if not np.isfinite(cond) or cond > cond_limit:
@@ -124,6 +122,30 @@ def check_gravity(robot: Robot, q0: Array) -> None:
             f"{robot.actuators[i]} needs {tau[i]:.3f} N m to hold the start at rest, "
             f"outside [{lo[i]}, {hi[i]}]: infeasible torque limits",
         )
+
+
+def floor_term(
+    robot: Robot, ground: float | None, influence: float, q0: Array, p_f: Array
+) -> tuple[float, float] | None:
+    """The floor's (h, delta) for the generator, None without a floor or without spheres it
+    applies to (:mod:`mmplan.robot.ground`). delta is fitted to the goal as an obstacle's
+    (:func:`fit_influence`): min(delta, max(0.05, 0.7 (z_f - h))).
+
+    Raises:
+        InputError: the goal lies below the floor, or a sphere starts below it.
+    """
+    spheres = list(ground_sphere_indices(robot))
+    if ground is None or not spheres:
+        return None
+    if p_f[2] < ground:
+        raise InputError(
+            "goal.position[2]", f"height {p_f[2]:.3f} m is below the floor z = {ground:.3f} m"
+        )
+    radii = np.asarray(robot.collision_radii, dtype=float)[spheres]
+    gap = float(np.min(robot.collision_points(q0)[spheres, 2] - radii)) - ground
+    if gap < 0.0:
+        raise InputError("start", f"below the floor z = {ground:.3f} m by {-gap:.3f} m")
+    return ground, min(influence, max(0.05, 0.7 * (float(p_f[2]) - ground)))
 
 
 def fit_influence(obstacles: Sequence[ObstacleTerm], p_f: Array) -> list[ObstacleTerm]:

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -46,7 +46,10 @@ from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian.posture import heading_term, posture_term
 from mmplan.planners.extended_jacobian.structure import (
+    partition_selection,
     reduced_manipulability,
+    selectable,
+    selected_transversality,
     structured_transversality,
 )
 from mmplan.planners.extended_jacobian.wrist import find_wrist, wrist_jacobian
@@ -173,6 +176,13 @@ class Criterion:
     v1: ca.SX
     de_I: ca.SX  # noqa: N815
     e_II: ca.SX  # noqa: N815
+    #: Partition symbols [sigma; vec(S_F)] (n_a^2,) when the partition is a parameter
+    #: (:mod:`~mmplan.planners.extended_jacobian.parameters`), else empty (0,).
+    sel: ca.SX = field(default_factory=lambda: ca.SX(0, 1))
+    #: Heading reference symbol (1,) when the heading term's theta_ref is a parameter, else (0,).
+    theta: ca.SX = field(default_factory=lambda: ca.SX(0, 1))
+    #: Arm joints the parametric partition may put in R (robot indices; empty: built in).
+    choices: tuple[int, ...] = ()
 
 
 def joint_limit_penalty(q_arm: ca.SX, q_min: Array, q_max: Array, weight: float) -> ca.SX:
@@ -191,6 +201,7 @@ def build_criterion(
     structured: bool = True,
     posture: Array | None = None,
     heading: float | None = None,
+    parametric: bool = False,
 ) -> Criterion:
     """Build H, g, e_I, E, v1 for ``robot`` ([PajakPajak] eqs. (9)-(16)).
 
@@ -205,6 +216,10 @@ def build_criterion(
     undetermined (None: no term; :mod:`~mmplan.planners.extended_jacobian.posture`). mu is
     measured at the wrist centre when the arm has one
     (:mod:`~mmplan.planners.extended_jacobian.wrist`), else at the end effector.
+    With ``parametric`` the heading reference and, where the structure allows it
+    (:func:`~mmplan.planners.extended_jacobian.structure.selected_transversality`), the
+    partition are symbols (``theta``, ``sel``; ``partition`` is then only the one the guard
+    checks the structured form with).
     """
     s = robot.symbols
     q, dq = s.q, s.dq
@@ -213,8 +228,9 @@ def build_criterion(
     penalty = joint_limit_penalty(q_arm, robot.limits.joint_min, robot.limits.joint_max, weight)
     if posture is not None and np.any(np.asarray(posture) > 0.0):
         penalty += posture_term(q_arm, robot.limits.joint_min, robot.limits.joint_max, posture)
+    theta = ca.SX.sym("theta_ref") if parametric and heading is not None else ca.SX(0, 1)
     if heading is not None:
-        penalty += heading_term(q, heading)
+        penalty += heading_term(q, theta if theta.numel() else heading)
     wrist = find_wrist(robot)
     J_w = None if wrist is None else wrist_jacobian(robot, wrist)
     mu = s.manipulability if J_w is None else ca.sqrt(ca.fmax(ca.det(J_w @ J_w.T), 0))
@@ -225,16 +241,47 @@ def build_criterion(
         g_red = structured_transversality(robot, partition.R, partition.F, ca.gradient(H_red, q))
         if g_red is None:  # R without every platform column: the solve, with the cheaper mu
             g_red = reference_transversality(robot, partition, H_red)
-        if _agree(q, p_f, g, g_red, robot):
+        sel = ca.SX(0, 1)
+        if parametric:
+            n_a = len(robot.arm_indices)
+            sel = ca.SX.sym("sel", n_a * n_a)
+            found = selected_transversality(
+                robot, sel[:n_a], ca.reshape(sel[n_a:], n_a, n_a - 1), ca.gradient(H_red, q)
+            )
+            if found is not None and selectable(robot, partition.R, found[1]):
+                g_sel, choices = found
+                n_p = robot.n_platform
+                chosen = partition_selection(n_p, len(robot.arm_indices), partition)
+                g_red = ca.substitute(g_sel, sel, ca.DM(chosen))
+                if _agree(q, p_f, g, g_red, robot, theta=theta, value=heading):
+                    e_I = ca.vertcat(s.ee_position - p_f, ca.cse(g_sel))
+                    return _finish(robot, q, dq, p_f, H_red, g_sel, e_I, sel, theta, choices)
+        if _agree(q, p_f, g, g_red, robot, theta=theta, value=heading):
             H, g = H_red, ca.cse(g_red)
     e_I = ca.vertcat(s.ee_position - p_f, g)
+    return _finish(robot, q, dq, p_f, H, g, e_I, ca.SX(0, 1), theta)
+
+
+def _finish(
+    robot: Robot,
+    q: ca.SX,
+    dq: ca.SX,
+    p_f: ca.SX,
+    H: ca.SX,
+    g: ca.SX,
+    e_I: ca.SX,
+    sel: ca.SX,
+    theta: ca.SX,
+    choices: tuple[int, ...] = (),
+) -> Criterion:
+    """The criterion's derived quantities (E, v1, ...) from e_I."""
     De = ca.jacobian(e_I, q)
-    A = s.pfaffian
+    A = robot.symbols.pfaffian
     E = ca.vertcat(De, A)
     de_I = De @ dq
     e_II = A @ dq
     v1 = ca.vertcat(ca.jacobian(de_I, q) @ dq, ca.jacobian(e_II, q) @ dq)
-    return Criterion(q, dq, p_f, H, g, e_I, De, E, v1, de_I, e_II)
+    return Criterion(q, dq, p_f, H, g, e_I, De, E, v1, de_I, e_II, sel, theta, choices)
 
 
 def reference_transversality(robot: Robot, partition: Partition, H: ca.SX) -> ca.SX:
@@ -248,9 +295,18 @@ def reference_transversality(robot: Robot, partition: Partition, H: ca.SX) -> ca
 
 
 def _agree(
-    q: ca.SX, p_f: ca.SX, g: ca.SX, g_red: ca.SX, robot: Robot, states: int = 2
+    q: ca.SX,
+    p_f: ca.SX,
+    g: ca.SX,
+    g_red: ca.SX,
+    robot: Robot,
+    states: int = 2,
+    theta: ca.SX | None = None,
+    value: float | None = None,
 ) -> bool:
     """Guard: the structured g equals the reference at a few seeded random states."""
+    if theta is not None and theta.numel():
+        g, g_red = (ca.substitute(x, theta, value or 0.0) for x in (g, g_red))
     fn = ca.Function("g_check", [q, p_f], [g, g_red])
     rng = np.random.default_rng(0)
     lo = np.where(np.isfinite(robot.limits.joint_min), robot.limits.joint_min, -np.pi)

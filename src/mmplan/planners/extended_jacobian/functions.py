@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.planners.extended_jacobian.parameters import ParameterLayout
 from mmplan.planners.extended_jacobian.step import CHUNK
 
 
@@ -42,9 +43,19 @@ class LazyFunction:
         self._fn: ca.Function | None = None
 
     def __call__(self, *args: Any) -> Any:
+        return self.function(*args)
+
+    @property
+    def function(self) -> ca.Function:
+        """The built function."""
         if self._fn is None:
             self._fn = self._build()
-        return self._fn(*args)
+        return self._fn
+
+    def __getattr__(self, name: str) -> Any:  # size1_in, n_instructions, ...: the function's
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self.function, name)
 
 
 @dataclass
@@ -61,7 +72,7 @@ class GeneratorFunctions:
     """
 
     step: ca.Function | LazyFunction | None  # SX reference step (None when compiled)
-    terms: ca.Function
+    terms: ca.Function | LazyFunction  # lazy when loaded from the disk cache (compiled.py)
     E: ca.Function
     n: int
     n_act: int
@@ -75,9 +86,13 @@ class GeneratorFunctions:
     native_chunk: Any = None  # cg.NativeFunction of chunk_flat (step.build_chunk_flat)
     _last: Array | None = None
     cache: dict[str, Any] = field(default_factory=dict)  # functions built later (torque.feedback)
+    #: Where goal, gains, floor, obstacle slots and partition lie in p (parameters.py).
+    layout: ParameterLayout = field(default_factory=ParameterLayout)
+    #: Disk-cache key of the compiled library ("" when not compiled or keyed by its model).
+    key: str = ""
 
     def evaluate(self, q: Array, dq: Array, p: Array) -> Terms:
-        """``terms`` at (q, dq) with parameters p = [p_f, Lambda_P, Lambda_V, Lambda_II]."""
+        """``terms`` at (q, dq) with parameters p (``layout``)."""
         v = self.terms_flat(np.concatenate([q, dq, p])).full().ravel()
         n, a = self.n, self.n_act
         cut = np.cumsum([n, n, n, 1, a, a * n, 1, a])

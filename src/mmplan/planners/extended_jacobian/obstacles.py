@@ -14,10 +14,12 @@ circuit, a CasADi ``Switch``):
   at least the distance to the box; if the sphere around a group is at least delta from the
   box, every kappa of the group and its gradient are exactly 0. Culling is exact: the same
   values as the full sum to rounding (tested), not an approximation.
-* ``obstacle_terms(q, p) -> (S, fp)``, S = varrho K and fp = P (-varrho G dK/dq) (after
-  :mod:`~mmplan.planners.extended_jacobian.near_goal`, which needs the goal in p) as in
-  :mod:`~mmplan.planners.extended_jacobian.generator`, the push computed only when some block is
-  near; ``obstacle_damping(q) -> S``.
+* ``obstacle_terms(q, p) -> (S, fp, dK/dq)``, S = varrho K and fp = P (-varrho G dK/dq)
+  (after :mod:`~mmplan.planners.extended_jacobian.near_goal`, which needs the goal in p) as
+  in :mod:`~mmplan.planners.extended_jacobian.generator`, the push computed only when some
+  block is near; ``obstacle_damping(q, p) -> S``. The obstacles are slots whose geometry is
+  read from p, and the floor (:mod:`~mmplan.planners.extended_jacobian.slots`); a block
+  function serves every slot of its shape type (one copy of its C code).
 
 Measured (CPU time of one compiled step on youbot3r-obstacles-torque, same run, dt 10 ms;
 ``python bench/bench_extended_jacobian.py``): 28.6 us full vs 8.9 us culled near the start
@@ -35,12 +37,12 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.planners.extended_jacobian.parameters import Shape
+from mmplan.planners.extended_jacobian.slots import SlotTerm, slot_penalty
 from mmplan.robot.robot import Robot
 
 #: Largest number of collision points in one culled block (:func:`point_groups`).
 GROUP_SIZE = 10
-#: Generator parameters p = [p_f (3), Lambda_P, Lambda_V, Lambda_II].
-N_PARAMS = 6
 
 
 class SmoothObstacle(Protocol):
@@ -159,23 +161,28 @@ def point_groups(robot: Robot, size: int = GROUP_SIZE) -> list[list[int]]:
 
 def obstacle_functions(
     robot: Robot,
-    obstacles: Sequence[ObstacleTerm],
+    terms: Sequence[SlotTerm],
+    n_params: int,
     projector: ca.SX,
     weights: np.ndarray,
     varrho: float,
     finish: Callable[[ca.MX, ca.MX, ca.MX, ca.MX], ca.MX] | None = None,
 ) -> tuple[ca.Function, ca.Function]:
-    """``obstacle_terms(q, p) -> (S, fp)`` and ``obstacle_damping(q) -> S`` with culling.
+    """``obstacle_terms(q, p) -> (S, fp, dK/dq)`` and ``obstacle_damping(q, p) -> S`` with
+    culling.
 
-    The collision points are grouped (:func:`point_groups`); a group's block for one obstacle
-    is evaluated when the group's bounding sphere (centre = mean of its points, a rigid-body
-    point; radius = largest distance of a point from it, plus the point's sphere radius)
-    comes within delta of the obstacle's bounding box: otherwise no point of the group is
-    within delta of the obstacle, and its kappa and gradient are exactly 0.
+    The collision points are grouped (:func:`point_groups`); a group's block for one term
+    (an obstacle slot or the floor, :mod:`~mmplan.planners.extended_jacobian.slots`, its
+    geometry read from p) is evaluated when the group's bounding sphere (centre = mean of its
+    points, a rigid-body point; radius = largest distance of a point from it, plus the
+    point's sphere radius) comes within delta of the term's bounding box (the floor: of the
+    plane): otherwise no point of the group is within delta, and its kappa and gradient are
+    exactly 0. A parked slot (delta = 0, far away) is never evaluated.
 
     Args:
         robot: The robot (collision points).
-        obstacles: Obstacles with their (fitted) neighbourhoods.
+        terms: Obstacle slots and the floor.
+        n_params: Length of p.
         projector: P(q) (n, n), the wheel-metric projector into ker A.
         weights: G (n,), gradient weight per coordinate.
         varrho: Perturbation gain.
@@ -185,49 +192,65 @@ def obstacle_functions(
     """
     s = robot.symbols
     q, points, n = s.q, s.collision_points, robot.n
-    qm = ca.MX.sym("q", n)
-    groups = point_groups(robot)
+    radii = np.asarray(robot.collision_radii, dtype=float)
+    qm, pm = ca.MX.sym("q", n), ca.MX.sym("p", n_params)
+    ps = ca.SX.sym("p", n_params)
+    blocks: list[tuple[int, list[int], SlotTerm]] = []  # (group, spheres, term)
     tests = []
-    for idx in groups:
-        local = np.array([robot.collision[i].center for i in idx], dtype=float)
-        radius = float(
-            max(
-                np.linalg.norm(c - local.mean(axis=0)) + robot.collision[i].radius
-                for c, i in zip(local, idx, strict=True)
+    for g, group in enumerate(point_groups(robot)):
+        for t in terms:
+            idx = [i for i in group if i in set(t.indices(len(robot.collision)))]
+            if not idx:
+                continue
+            local = np.array([robot.collision[i].center for i in idx], dtype=float)
+            radius = float(
+                max(
+                    np.linalg.norm(c - local.mean(axis=0)) + radii[i]
+                    for c, i in zip(local, idx, strict=True)
+                )
             )
-        )
-        centre = ca.sum2(points[:, idx]) / len(idx)
-        tests += [box_gap_sym(ob.model, centre) < radius + ob.influence for ob in obstacles]
-    near = ca.Function("mmplan_obstacles_near", [q], ca.cse([ca.vertcat(*tests)]))(qm)
+            centre = ca.sum2(points[:, idx]) / len(idx)
+            prm = t.numbers(ps)
+            tests.append(t.box_gap(centre, prm) < radius + t.influence(prm))
+            blocks.append((g, idx, t))
     S_total: ca.MX = ca.MX(0)
     S_only: ca.MX = ca.MX(0)
     grad: ca.MX = ca.MX.zeros(n)
-    for g, idx in enumerate(groups):
-        for j, ob in enumerate(obstacles):
-            K = obstacle_penalty(points[:, idx], [ob], radii=robot.collision_radii[idx])
-            name = f"mmplan_obst_g{g}_o{j}"
-            block = ca.Function(name, [q], ca.cse([ca.vertcat(K, ca.gradient(K, q))]))
-            value = ca.Function(name + "_k", [q], ca.cse([K]))
-            flag = near[g * len(obstacles) + j]
-            out = conditional(name + "_if", flag, block, [qm])
-            S_total += out[0]
-            grad += out[1:]
-            S_only += conditional(name + "_k_if", flag, value, [qm])
+    if blocks:
+        near = ca.Function("mmplan_obstacles_near", [q, ps], ca.cse([ca.vertcat(*tests)]))(qm, pm)
+    # one block function per (group, shape type), called for every slot of that type: the
+    # C code holds each once, so the build time does not grow with the number of slots
+    made: dict[tuple[int, Shape | None], tuple[ca.Function, ca.Function]] = {}
+    for b, (g, idx, t) in enumerate(blocks):
+        if (g, t.exponents) not in made:
+            prm = ca.SX.sym("prm", t.size)
+            K = slot_penalty(points[:, idx], radii[idx], [SlotTerm(t.exponents, 0)], prm)
+            name = f"mmplan_obst_g{g}_s{len(made)}"
+            made[g, t.exponents] = (
+                ca.Function(name, [q, prm], ca.cse([ca.vertcat(K, ca.gradient(K, q))])),
+                ca.Function(name + "_k", [q, prm], ca.cse([K])),
+            )
+        block, value = made[g, t.exponents]
+        name = f"mmplan_obst_g{g}_t{b}"
+        args = [qm, t.numbers(pm)]
+        out = conditional(name + "_if", near[b], block, args)
+        S_total += out[0]
+        grad += out[1:]
+        S_only += conditional(name + "_k_if", near[b], value, args)
     # The push P (-varrho G dK/dq), as ``finish`` changes it, only when some block is near.
     grad_s = ca.SX.sym("grad", n)
     raw = ca.Function(
         "mmplan_obstacle_push_raw", [q, grad_s], [projector @ (-varrho * (ca.DM(weights) * grad_s))]
     )
-    ins = [ca.MX.sym("q", n), ca.MX.sym("p", N_PARAMS), ca.MX.sym("grad", n), ca.MX.sym("K")]
+    ins = [ca.MX.sym("q", n), ca.MX.sym("p", n_params), ca.MX.sym("grad", n), ca.MX.sym("K")]
     fp_in = raw(ins[0], ins[2])
     if finish is not None:
         fp_in = finish(ins[0], ins[1], fp_in, ins[3])
     push = ca.Function("mmplan_obstacle_push", ins, [fp_in])
-    pm = ca.MX.sym("p", N_PARAMS)
-    if groups and obstacles:
+    if blocks:
         fp = conditional("mmplan_obstacle_push_if", ca.mmax(near), push, [qm, pm, grad, S_total])
-    else:  # no collision point or no obstacle: nothing pushes
+    else:  # no collision point or no term: nothing pushes
         fp = ca.MX.zeros(n)
-    terms = ca.Function("mmplan_obstacle_terms", [qm, pm], [varrho * S_total, fp])
-    damping = ca.Function("mmplan_obstacle_damping", [qm], [varrho * S_only])
-    return terms, damping
+    terms_fn = ca.Function("mmplan_obstacle_terms", [qm, pm], [varrho * S_total, fp, grad])
+    damping = ca.Function("mmplan_obstacle_damping", [qm, pm], [varrho * S_only])
+    return terms_fn, damping

@@ -37,12 +37,12 @@ class OnlineGenerator:
     def __init__(
         self,
         fns: GeneratorFunctions,
-        p_f: Array,
+        p: Array,
         options: RolloutOptions,
         notify: Callable[[str], None] | None = None,
     ) -> None:
         self._fns = fns
-        self._p = np.concatenate([np.asarray(p_f, dtype=float), options.gains])
+        self._p = np.array(p, dtype=float)  # the generator parameters (fns.layout.pack)
         self._opt = options
         self._zero = np.zeros(fns.n)
         self._first = True

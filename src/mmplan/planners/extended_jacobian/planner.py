@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.compile import codegen as cg
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.extended_jacobian import cache as ej_cache
@@ -49,14 +50,16 @@ from mmplan.planners.extended_jacobian.generator import (
 )
 from mmplan.planners.extended_jacobian.online import OnlineGenerator
 from mmplan.planners.extended_jacobian.options import RolloutOptions
+from mmplan.planners.extended_jacobian.parameters import slots_for
 from mmplan.planners.extended_jacobian.posture import heading_reference, posture_weights
+from mmplan.planners.extended_jacobian.replan import Replanner
 from mmplan.planners.extended_jacobian.rollout import rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
 from mmplan.planners.extended_jacobian.switching import PartitionSwitch
 from mmplan.planners.extended_jacobian.time_scaling import retime, rollout_time_scaled
 from mmplan.problem import Problem, Progress
-from mmplan.task import ReachPoint
-from mmplan.trajectory import Solution, Trajectory
+from mmplan.task import ReachPoint, completion_time
+from mmplan.trajectory import Solution, Status, Trajectory
 
 
 @dataclass(frozen=True)
@@ -65,6 +68,7 @@ class _Prepared:
 
     q0: NDArray[np.float64]
     p_f: NDArray[np.float64]
+    params: NDArray[np.float64]  # p of the generator (parameters.py)
     fns: GeneratorFunctions
     options: RolloutOptions
     partition: Partition
@@ -98,7 +102,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             robot.pfaffian,
             wheel_metric_inverse(robot),
             prep.q0,
-            prep.p_f,
+            prep.params,
             prep.options,
             prep.switch,
         )
@@ -128,10 +132,11 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
                 "build_time_s": prep.build_time,
             }
         )
+        status, message = final_status(res.status, res.message, task, trajectory)
         return Solution(
-            status=res.status,
+            status=status,
             trajectory=trajectory,
-            message=res.message,
+            message=message,
             info=info,
             history={"error": res.error, "perturbation_scale": res.s},
         )
@@ -139,7 +144,13 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
     def online(self, problem: Problem) -> OnlineGenerator:
         """The generator as an online step for a control loop (state in; ddq, tau, u out)."""
         prep = self._prepare(problem)
-        return OnlineGenerator(prep.fns, prep.p_f, prep.options)
+        return OnlineGenerator(prep.fns, prep.params, prep.options)
+
+    def replanner(self, problem: Problem, spare: int = 2) -> Replanner:
+        """Re-planning from a moving state among moved or new obstacles with one compiled
+        generator (:mod:`~mmplan.planners.extended_jacobian.replan`):
+        ``replanner(problem).replan(q, dq, scene)``."""
+        return Replanner(problem, spare)
 
     @classmethod
     def _prepare(cls, problem: Problem) -> _Prepared:
@@ -160,23 +171,31 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         ]
         ej_checks.check_start_clearance(robot, problem.scene, obstacles, q0)
         obstacles = ej_checks.fit_influence(obstacles, p_f)
+        floor = getattr(problem.scene, "ground", None)  # a duck-typed scene may have none
+        ground = ej_checks.floor_term(robot, floor, settings.influence, q0, p_f)
         partition = choose_partition(robot, q0)
         posture = tuple(float(b) for b in posture_weights(robot, settings.posture_weight))
         heading = heading_reference(robot, q0, p_f)
+        slots = slots_for([ob.model.exponents for ob in obstacles])  # type: ignore[attr-defined]
         built = ej_cache.generator(
             robot,
             partition,
-            obstacles,
+            slots,
             settings.penalty_weight,
             settings.varrho,
             settings.arm_gradient_weight,
             settings.codegen,
             posture,
             heading,
+            notify=cg.notice,
         )
         fns, build_time = built.fns, built.build_time
         options = RolloutOptions.from_settings(settings, robot, task.tolerance)
-        ej_checks.check_conditioning(fns, q0, p_f, options.gains, settings.cond_limit)
+        params = fns.layout.pack(
+            p_f, options.gains, [(ob.model, ob.influence) for ob in obstacles], ground,
+            partition if fns.layout.n_arm else None, heading,
+        )  # fmt: skip
+        ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
         if options.torque_control:
             ej_checks.check_gravity(robot, q0)
         vcs = settings.virtual_control
@@ -188,18 +207,22 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             options.rates is not None and not options.torque_control
         )
         def build(other: Partition) -> GeneratorFunctions:
-            # A partition switch mid-run uses the SX virtual machine (no 30-60 s C build).
+            if fns.layout.supports(other):  # a value of p: the same (compiled) functions
+                return fns
+            # Another partition mid-run uses the SX virtual machine (no C build).
             crit = build_criterion(
-                robot, other, settings.penalty_weight, posture=np.asarray(posture), heading=heading
-            )
+                robot, other, settings.penalty_weight, posture=np.asarray(posture),
+                heading=heading, parametric=True,
+            )  # fmt: skip
             return build_functions(
-                robot, crit, obstacles, settings.varrho, settings.arm_gradient_weight
+                robot, crit, slots, settings.varrho, settings.arm_gradient_weight
             )
 
         switch = PartitionSwitch(robot, build, [partition], options.switch_cond)
         return _Prepared(
             q0,
             p_f,
+            params,
             fns,
             options,
             partition,
@@ -208,3 +231,24 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             time_scaling,
             switch,
         )
+
+
+def final_status(
+    status: Status, message: str, task: ReachPoint, trajectory: Trajectory
+) -> tuple[Status, str]:
+    """The run's status judged on its final (re-timed) trajectory, as the checker judges it.
+
+    The rollout stops at half the tolerance (``stop_error``), so a run cut by ``t_max`` or a
+    stall verdict may end inside the tolerance: that run completed the task and is
+    ``reached`` (issue 16: a ``timeout`` whose final error was 0.68 mm of 1 mm). A run
+    ``reached`` whose trajectory ends outside the tolerance is ``stalled``. Other statuses
+    (a broken limit, a divergence) stand.
+    """
+    errors = task.errors(trajectory.t, trajectory.ee)
+    done = completion_time(trajectory.t, errors, float(task.tolerance)) is not None
+    final = f"final error {float(errors[-1]):.3g} m, tolerance {float(task.tolerance):g} m"
+    if status in (Status.TIMEOUT, Status.STALLED) and done:
+        return Status.REACHED, f"goal reached ({final}) when the run ended: {message}"
+    if status is Status.REACHED and not done:
+        return Status.STALLED, f"the trajectory ends outside the tolerance ({final}): {message}"
+    return status, message

@@ -99,7 +99,9 @@ def heading_reference(robot: Robot, q0: Array, p_f: Array) -> float | None:
     return float(np.arctan2(d[1], d[0]))
 
 
-def heading_term(q: ca.SX, theta_ref: float, weight: float = HEADING_WEIGHT) -> ca.SX:
+def heading_term(
+    q: ca.SX, theta_ref: float | ca.SX, weight: float = HEADING_WEIGHT
+) -> ca.SX:
     r"""weight (1 - cos(theta - theta_ref)): the platform faces theta_ref
     (:func:`heading_reference`), smooth and periodic.
 

@@ -102,12 +102,14 @@ def rollout(
     pfaffian: Any,
     winv: Array,
     q0: Array,
-    p_f: Array,
+    p: Array,
     opt: RolloutOptions,
     switch: PartitionSwitch | None = None,
     fast: bool = True,
+    dq0: Array | None = None,
 ) -> RolloutResult:
-    """Run the generator from rest at ``q0`` towards ``p_f`` until reached or stopped.
+    """Run the generator from ``q0`` (at rest, or moving at ``dq0``) towards the goal p[:3]
+    until reached or stopped.
 
     When ``switch`` wants one (cond(E) above ``opt.switch_cond``, or cond(Jc_R) grown:
     :mod:`~mmplan.planners.extended_jacobian.switching`), ``switch(q, factor)`` may return
@@ -119,12 +121,15 @@ def rollout(
         fns: Generator functions of the problem.
         pfaffian: Callable q -> A(q) (h, n) (NumPy), for the escape projection.
         winv: Diagonal of W^-1 (n,).
-        q0: Start (n,). p_f: Goal (3,).
+        q0: Start (n,).
+        p: Generator parameters (goal, gains, scene: ``fns.layout.pack``).
         opt: Options.
+        dq0: Start velocity (n,) (re-planning from a moving state); None: rest.
     """
     n, dt = fns.n, opt.dt
-    p = np.concatenate([p_f, opt.gains])
-    q, dq = np.array(q0, dtype=float), np.zeros(n)
+    p = np.array(p, dtype=float)
+    p_f = p[:3]
+    q, dq = np.array(q0, dtype=float), np.zeros(n) if dq0 is None else np.array(dq0, float)
     if switch is not None:
         switch.start(q)
     u = 0.0 if opt.torque_control else 1.0
@@ -164,6 +169,7 @@ def rollout(
                 other = switch(q, factor)
                 if other is not None:
                     fns, switches = other, switches + 1
+                    p = fns.layout.retarget(p, switch.partitions[-1])
                     out = fns.evaluate(q, dq, p)
                     f0, fv = out.f0, out.fv
                     cond = float(np.linalg.cond(np.asarray(fns.E(q, p), dtype=float)))

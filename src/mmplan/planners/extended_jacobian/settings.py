@@ -103,8 +103,12 @@ class ExtendedJacobianSettings(PlannerSettings):
     max_escapes: int = Field(5, ge=0, le=1000)
     cond_limit: float = Field(1e8, gt=1, allow_inf_nan=False,
                               description="cond(E) above which the run diverged")
-    codegen: bool = Field(
-        False, description="compile the generator to C (faster steps, 5-20 s build, cached)"
+    codegen: bool | None = Field(
+        None,
+        description="compile the generator to C (once per robot model and obstacle shape "
+        "types, cached on disk; scenes, goals and partitions are parameters); null: when a "
+        "compiler is present and the model builds in seconds (the youBots; a larger one "
+        "runs on the virtual machine unless compiled before); false: the virtual machine",
     )
     vibration: bool = Field(
         True, description="the CLI and mmplan.analysis.analyse add the tip-vibration study "

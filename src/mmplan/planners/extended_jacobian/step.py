@@ -1,7 +1,9 @@
 r"""Fused generator step and whole-chunk rollout of the extended-Jacobian planner (speed).
 
 ``record_step(x, par) -> (x_next, rec)`` with x = [q; dq] and
-par = [p (6); u; s; ext (n); dt] does in one call what a rollout step does in two
+par = [p; u; s; ext (n); dt] (p the generator parameters,
+:mod:`~mmplan.planners.extended_jacobian.parameters`) does in one call what a rollout step
+does in two
 (:mod:`mmplan.planners.extended_jacobian.generator`): the sample at (q, dq),
 ``rec = [ddq; tau; err; f]`` with ddq = f0 + ext + u fv + s (fp - S dq), tau = T0 + Tm ddq
 ([PajakPajak] eqs. (16), (19), (22)) and f = sum(f0) + sum(fv) + S (finite iff they are), and the
@@ -62,7 +64,7 @@ class StepParts:
 
 def _rk4_strang(
     accel: Callable[..., Any],
-    damp: Callable[[Any], Any],
+    damp: Callable[[Any, Any], Any],
     q: Any,
     d1: Any,
     k1a: Any,
@@ -84,7 +86,7 @@ def _rk4_strang(
     k4a = accel(q + dt * k3v, k4v, u, s, ext, p)
     q_next = q + dt / 6 * (d1 + 2 * k2v + 2 * k3v + k4v)
     dq_next = d1 + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
-    S1, P1 = damp(q_next)
+    S1, P1 = damp(q_next, p)
     return q_next, P1 @ (dq_next * ca.exp(-s * S1 * dt / 2))
 
 
@@ -96,7 +98,7 @@ def build_record_step(
     Args:
         parts: Generator pieces at the sample state.
         accel: (q, dq, u, s, ext, p) -> f0 + u fv + s fp + P ext (stages 2-4).
-        damp: q -> (S, P) (damping rate, wheel-metric projector into ker A).
+        damp: (q, p) -> (S, P) (damping rate, wheel-metric projector into ker A).
         cse: Merge common subexpressions (about 20 % fewer operations, ~1 s to find; worth
             it only for compiled code).
     """
@@ -164,21 +166,22 @@ def build_record_step_culled(
         parts: Generator pieces with ``parts.S`` and ``parts.fp`` the symbols S_sym, fp_sym.
         S_sym, fp_sym: Symbols of the damping rate (1) and the push as applied (n).
         accel: (q, dq, u, s, ext, p, fp) -> f0 + u fv + s fp + P ext.
-        obstacle_terms: (q, p) -> (S, fp). obstacle_damping: q -> S. projector: q -> P.
+        obstacle_terms: (q, p) -> (S, fp, ...). obstacle_damping: (q, p) -> S. projector: q -> P.
     """
     n = parts.q.numel()
     h = _head(parts)
     head = ca.Function("mmplan_ej_head", [h.x, h.par, S_sym, fp_sym], ca.cse([h.d1, h.k1a, h.rec]))
     xm, pm = ca.MX.sym("x", 2 * n), ca.MX.sym("par", h.par.numel())
-    q, p, u, s, ext, dt = xm[:n], pm[:6], pm[6], pm[7], pm[8 : 8 + n], pm[8 + n]
-    S0, fp0 = obstacle_terms(q, p)
+    k = parts.p.numel()
+    q, p, u, s, ext, dt = xm[:n], pm[:k], pm[k], pm[k + 1], pm[k + 2 : k + 2 + n], pm[k + 2 + n]
+    S0, fp0 = obstacle_terms(q, p)[:2]
     d1, k1a, rec = head(xm, pm, S0, fp0)
 
     def stage(qs: ca.MX, vs: ca.MX, u: ca.MX, s: ca.MX, ext: ca.MX, p: ca.MX) -> ca.MX:
         return accel(qs, vs, u, s, ext, p, obstacle_terms(qs, p)[1])
 
-    def damp(qs: ca.MX) -> tuple[ca.MX, ca.MX]:
-        return obstacle_damping(qs), projector(qs)
+    def damp(qs: ca.MX, p: ca.MX) -> tuple[ca.MX, ca.MX]:
+        return obstacle_damping(qs, p), projector(qs)
 
     q_next, dq_next = _rk4_strang(stage, damp, q, d1, k1a, u, s, ext, p, dt)
     return ca.Function(
@@ -209,7 +212,7 @@ def build_chunk_flat(chunk: ca.Function, E: ca.Function, effort: ca.Function) ->
     x0, par = xp[:nx], xp[nx:]
     X, REC = chunk(x0, par)
     n = nx // 2
-    E0 = E(x0[:n], par[:6])
+    E0 = E(x0[:n], par[: E.size1_in(1)])
     K = X.shape[1]
     starts = ca.horzcat(x0, X[:, : K - 1])
     eff = effort.map(K)(starts)
@@ -226,10 +229,11 @@ def reference_step(
     ddq = accel (the stiff damping term exactly, docs/extended_jacobian.md), then dq projected into
     ker A(q+); ``step_flat`` takes x = [q; dq; u; s; ext; p; dt].
     """
+    k = p.numel()
     u, sp, dt = ca.SX.sym("u"), ca.SX.sym("s"), ca.SX.sym("dt")
     ext = ca.SX.sym("ext", n)
     qs, dqs = ca.SX.sym("q", n), ca.SX.sym("dq", n)
-    d1 = dqs * ca.exp(-sp * damp(qs)[0] * dt / 2)
+    d1 = dqs * ca.exp(-sp * damp(qs, p)[0] * dt / 2)
     k1a = accel(qs, d1, u, sp, ext, p)
     q_next, dq_next = _rk4_strang(accel, damp, qs, d1, k1a, u, sp, ext, p, dt)
     step = ca.Function(
@@ -240,22 +244,22 @@ def reference_step(
         ["q_next", "dq_next"],
     )
     step = step.expand()
-    xs = ca.SX.sym("x", 3 * n + 9)
+    xs = ca.SX.sym("x", 3 * n + 3 + k)
     nxt = step(
         xs[:n],
         xs[n : 2 * n],
         xs[2 * n],
         xs[2 * n + 1],
         xs[2 * n + 2 : 3 * n + 2],
-        xs[3 * n + 2 : 3 * n + 8],
-        xs[3 * n + 8],
+        xs[3 * n + 2 : 3 * n + 2 + k],
+        xs[3 * n + 2 + k],
     )
     return step, ca.Function("mmplan_ej_step_flat", [xs], [ca.vertcat(*nxt)])
 
 
-def step_wrapper(record: ca.Function, n: int) -> ca.Function:
-    """``step_flat`` (x = [q; dq; u; s; ext; p; dt]) computed by the fused ``record_step``."""
-    xs = ca.MX.sym("x", 3 * n + 9)
-    par = ca.vertcat(xs[3 * n + 2 : 3 * n + 8], xs[2 * n : 3 * n + 2], xs[3 * n + 8])
+def step_wrapper(record: ca.Function, n: int, k: int) -> ca.Function:
+    """``step_flat`` (x = [q; dq; u; s; ext; p (k); dt]) computed by the fused ``record_step``."""
+    xs = ca.MX.sym("x", 3 * n + 3 + k)
+    par = ca.vertcat(xs[3 * n + 2 : 3 * n + 2 + k], xs[2 * n : 3 * n + 2], xs[3 * n + 2 + k])
     x_next, _ = record(xs[: 2 * n], par)
     return ca.Function("mmplan_ej_step_flat", [xs], [x_next])

@@ -16,8 +16,11 @@ straightforward ones up to rounding, with 3-10x fewer operations:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
 
 from mmplan.robot.dynamics import angular_jacobian
 from mmplan.robot.robot import Robot
@@ -138,6 +141,69 @@ def structured_transversality(
     else:
         x_a = ca.solve(B, J[:, F])[n_p - h :, :]
     return Hq[F] - x_a.T @ Hq[Ra]
+
+
+def selected_transversality(
+    robot: Robot, sigma: ca.SX, S_F: ca.SX, Hq: ca.SX
+) -> tuple[ca.SX, tuple[int, ...]] | None:
+    r""":func:`structured_transversality` with the partition as numbers: R = platform + the
+    arm joint picked by the one-hot ``sigma`` (n_a,), F = the arm joints picked by the
+    columns of ``S_F`` (n_a, n_a - 1) (:mod:`~mmplan.planners.extended_jacobian.parameters`).
+
+    Same operations with J_Ra = J_arm sigma and J_F = J_arm S_F (products with 0 and 1: the
+    same values to rounding). Returns g and the arm joints (robot indices) that may be
+    picked (the others divide by a structural zero: Jc_R singular at every q, youbot-3r's
+    q1), or None when the structure does not apply (m = 3, one arm joint in R, the
+    platform's null basis of two columns: the youBots, TIAGo).
+    """
+    s = robot.symbols
+    q, n_p, h = s.q, robot.n_platform, robot.h
+    arm = list(robot.arm_indices)
+    if not (all(Hq[i].is_zero() for i in range(n_p)) and _planar_pose(robot)):
+        return None
+    if len(arm) < 2 or n_p - h != 2 or arm != list(range(n_p, robot.n)):
+        return None
+    posed = ca.vertcat(ca.SX.zeros(3), q[3:])
+    J = ca.cse(ca.substitute(s.jacobian, q, posed))
+    if J.shape[0] != 3:
+        return None
+    N_p = ca.substitute(s.null_basis[:n_p, : n_p - h], q, posed)
+    Jp = J[:, :n_p] @ N_p
+    c = ca.cross(Jp[:, 0], Jp[:, 1])
+    J_arm = J[:, arm]
+    nz = [k for k in range(3) if not c[k].is_zero()]
+    row = J_arm[nz[0], :] if len(nz) == 1 else c.T @ J_arm  # c = c_k e_k: c_k cancels
+    x_a = (row @ S_F) / (row @ sigma)  # (1, n_a - 1)
+    H_arm = Hq[arm]
+    choices = tuple(i for j, i in enumerate(arm) if not row[j].is_zero())
+    return S_F.T @ H_arm - x_a.T @ (sigma.T @ H_arm), choices
+
+
+def selectable(robot: Robot, R: Sequence[int], choices: Sequence[int]) -> bool:
+    """R = every platform coordinate + one of the arm joints ``choices``."""
+    n_p = robot.n_platform
+    extra = set(R) - set(range(n_p))
+    return set(range(n_p)) <= set(R) and len(extra) == 1 and extra <= set(choices)
+
+
+def partition_selection(n_platform: int, n_arm: int, partition: Any) -> NDArray[np.float64]:
+    """[sigma; vec(S_F)] (n_arm^2,) of a partition (R, F) with R = platform + one arm joint:
+    sigma the one-hot choice of that joint, S_F's columns the F joints in robot order
+    (:func:`selected_transversality`).
+
+    Raises:
+        ValueError: the partition is not of that form.
+    """
+    n_p, n_a = n_platform, n_arm
+    ra = [i - n_p for i in partition.R if i >= n_p]
+    f = [i - n_p for i in partition.F]
+    if len(ra) != 1 or len(f) != n_a - 1 or set(range(n_p)) - set(partition.R):
+        raise ValueError(f"partition {partition} is not platform + one arm joint")
+    sigma = np.zeros(n_a)
+    sigma[ra[0]] = 1.0
+    S_F = np.zeros((n_a, n_a - 1))
+    S_F[f, range(n_a - 1)] = 1.0
+    return np.concatenate([sigma, S_F.ravel(order="F")])
 
 
 def structured_solve(robot: Robot, E: ca.SX, B: ca.SX) -> ca.SX:

@@ -1,7 +1,8 @@
 """Base path keeping manipulability ([Nagatani]; docs/manipulability_area.md).
 
-Data flow: :mod:`.settings` -> manipulability layers on a grid (:mod:`.grid`) -> base path
-(:mod:`.path`) -> trajectory and result (:mod:`.result`), run by :mod:`.planner`.
+Data flow: :mod:`.settings` -> manipulability layers on a grid (:mod:`.grid`; the arm's IK:
+closed form or numeric, :mod:`.arms`) -> base path (:mod:`.path`) -> trajectory and result
+(:mod:`.result`), run by :mod:`.planner`.
 """
 
 from typing import TYPE_CHECKING

@@ -12,9 +12,10 @@ import numpy as np
 from mmplan.arrays import Array, BoolArray
 from mmplan.planners.manipulability_area import grid as lma_grid
 from mmplan.planners.manipulability_area import path as lma_path
+from mmplan.planners.manipulability_area.arms import Arm
 from mmplan.problem import Problem
-from mmplan.robot.library import base_6dof_ik as puma_ik
-from mmplan.robot.library.base_6dof_ik import PumaGeometry
+from mmplan.robot.ground import floor_clearances
+from mmplan.robot.robot import Robot
 from mmplan.trajectory import Solution, Status, Trajectory
 
 
@@ -32,37 +33,37 @@ def _trajectory(problem: Problem, s: Array, q: Array, dq: Array | None = None,
                       zeros if ddq is None else ddq, _ee(problem, q))
 
 
-def _rates(geom: PumaGeometry, poses: lma_grid.ToolPoses, q_arm: Array, v_base: Array,
-           a_base: Array) -> tuple[Array, Array]:
-    """Exact d/ds and d2/ds2 of q along the planned motion, (N, 9) each: base velocity and
-    acceleration given, the tool along the segment at constant orientation; the arm rates
-    solve J dq = (v_tool - v_base, 0) in the arm frame
-    (:func:`mmplan.robot.library.base_6dof_ik.joint_rates`)."""
-    N = len(poses.s)
-    c, s = np.cos(poses.heading), np.sin(poses.heading)
-    Rz_T = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    v_tool = (poses.positions[-1] - poses.positions[0]) / (poses.s[-1] - poses.s[0])
-    v_rel = (v_tool[None] - np.column_stack([v_base, np.zeros(N)])) @ Rz_T.T
-    a_rel = -np.column_stack([a_base, np.zeros(N)]) @ Rz_T.T
-    dq_arm, ddq_arm = puma_ik.joint_rates(geom, q_arm, v_rel, a_rel)
-    dq = np.column_stack([v_base, np.zeros(N), dq_arm])
-    ddq = np.column_stack([a_base, np.zeros(N), ddq_arm])
-    return dq, ddq
+def platform_motion(robot: Robot, xy: Array, v_base: Array, a_base: Array, heading: float,
+                    s: Array) -> tuple[Array, Array, Array, float]:
+    """Platform columns (N, n_platform) of q, d/ds, d2/ds2 along the base path (x, y at a
+    fixed heading), and the largest Pfaffian residual |A(q) dq| of that motion.
 
-
-def _along(geom: PumaGeometry, problem: Problem, poses: lma_grid.ToolPoses, xy: Array,
-           branch: lma_grid.Branch,
-           limits: tuple[Array, Array] | None) -> tuple[Array, Array, BoolArray]:
-    """Arm joints (N, 6) by exact IK at bases ``xy`` (N, 2) (angles shifted by 2 pi into the
-    robot's limits where that helps), exact w (N,) and the valid mask (N,)."""
-    N = len(poses.s)
-    q_arm, ok = np.zeros((N, 6)), np.zeros(N, dtype=bool)
-    robot_limits = (problem.robot.limits.joint_min, problem.robot.limits.joint_max)
+    Wheel coordinates (a differential drive) roll with the base: their rates solve
+    A(q) dq = 0 for the given (dx, dy, 0) in the least-squares sense, their angles are the
+    trapezoid integral of the rates in s (what the checker compares) and their second
+    derivative the central difference of the rates. A base that moves sideways to its heading
+    leaves a residual (a differential drive cannot): the caller reports it."""
+    N, n_p = len(xy), robot.n_platform
+    qp = np.zeros((N, n_p))
+    dqp, ddqp = np.zeros((N, n_p)), np.zeros((N, n_p))
+    qp[:, :2], qp[:, 2] = xy, heading
+    dqp[:, :2], ddqp[:, :2] = v_base, a_base
+    if robot.h == 0:
+        return qp, dqp, ddqp, 0.0
+    q = np.zeros(robot.n)
+    residual = 0.0
     for k in range(N):
-        qk, okk = lma_grid.configurations(geom, poses, k, xy[k][None], branch)
-        qk, inside = lma_grid.fit_joint_limits(qk, *robot_limits)
-        q_arm[k], ok[k] = qk[0], okk[0] and (limits is None or inside[0])
-    return q_arm, np.where(ok, puma_ik.manipulability(geom, q_arm), 0.0), ok
+        q[:n_p] = qp[k]
+        A = robot.pfaffian(q)[:, :n_p]
+        if n_p > 3:
+            rhs = -A[:, :3] @ dqp[k, :3]
+            dqp[k, 3:] = np.linalg.lstsq(A[:, 3:], rhs, rcond=None)[0]
+        residual = max(residual, float(np.abs(A @ dqp[k]).max()))
+    ds = np.diff(s)[:, None]
+    qp[1:, 3:] = np.cumsum(0.5 * ds * (dqp[:-1, 3:] + dqp[1:, 3:]), axis=0)
+    if N > 1:
+        ddqp[:, 3:] = np.gradient(dqp[:, 3:], s, axis=0)
+    return qp, dqp, ddqp, residual
 
 
 def failure(problem: Problem, message: str) -> Solution:
@@ -87,8 +88,7 @@ def assemble(
     poses: lma_grid.ToolPoses,
     way_xy: Array,
     keep: list[int],
-    branch: lma_grid.Branch,
-    limits: tuple[Array, Array] | None,
+    arm: Arm,
     *,
     kind: str,
     straight_groups: int,
@@ -98,21 +98,27 @@ def assemble(
     error says otherwise. Corners get parabolic blends over half a layer interval when the
     exact w stays above the threshold with them
     (:func:`mmplan.planners.manipulability_area.path.blended_polyline`)."""
-    geom = PumaGeometry.base_6dof()
     L = len(stack.poses.s)
     m = (len(poses.s) - 1) // (L - 1)
     way_s = stack.poses.s[keep]
     for half in ([0.5 / (L - 1), 0.0] if len(keep) > 2 else [0.0]):
         xy, v_base, a_base = lma_path.blended_polyline(way_s, way_xy, poses.s, half)
-        q_arm, w, ok = _along(geom, problem, poses, xy, branch, limits)
+        q_arm, w, ok = arm.along(problem.robot, poses, xy)
         if ok.all() and w.min() >= threshold:
             break
-    N = len(poses.s)
-    q = np.column_stack([xy, np.full(N, poses.heading), q_arm])
-    rates = _rates(geom, poses, q_arm, v_base, a_base) if ok.all() else (None, None)
+    qp, dqp, ddqp, pfaffian = platform_motion(problem.robot, xy, v_base, a_base,
+                                              poses.heading, poses.s)
+    q = np.column_stack([qp, q_arm])
+    rates: tuple[Array | None, Array | None] = (None, None)
+    if ok.all():
+        dq_arm, ddq_arm = arm.arm_rates(poses, q_arm, v_base, a_base)
+        rates = (np.column_stack([dqp, dq_arm]), np.column_stack([ddqp, ddq_arm]))
     traj = _trajectory(problem, poses.s, q, *rates)
     err = problem.task.errors(traj.t, traj.ee)
     steps = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    floor_gaps = floor_clearances(problem.robot, q, problem.scene.ground or 0.0)  # (N, G)
+    floor_gap = (float(floor_gaps.min()) if problem.scene.ground is not None and floor_gaps.size
+                 else None)
     info = {
         "manipulability_threshold": float(threshold),
         "manipulability_min": float(w.min()),
@@ -132,6 +138,7 @@ def assemble(
         "ma_cells_min": int(masks.sum(axis=(1, 2)).min()),
         "max_task_error_m": float(err.max()),
         "max_joint_limit_violation_rad": _limit_violation(problem, q_arm),
+        "min_floor_clearance_m": floor_gap,
     }
     layer_xy = xy[::m]
     cells = (layer_xy - np.array([stack.grid.xs[0], stack.grid.ys[0]])) / stack.grid.resolution
@@ -152,7 +159,12 @@ def assemble(
         "subgoal_layers": np.asarray(keep, dtype=float),
         "threshold": np.array([threshold]),
     }
-    if not ok.all():
+    if pfaffian > 1e-9:
+        status = Status.INFEASIBLE
+        platform = type(problem.robot.platform).__name__
+        message = (f"the base path moves sideways to the heading {poses.heading:.4g} rad, "
+                   f"which a {platform} platform cannot (|A(q) dq| up to {pfaffian:.3g})")
+    elif not ok.all():
         k = int(np.flatnonzero(~ok)[0])
         status = Status.INFEASIBLE
         message = f"s={poses.s[k]:.3f} (layer {k / m:g}): no IK solution on the planned path"
@@ -164,6 +176,11 @@ def assemble(
     elif err.max() >= problem.task.tolerance:
         status = Status.INFEASIBLE
         message = f"task error {err.max():.3g} m >= tolerance {problem.task.tolerance} m"
+    elif floor_gap is not None and floor_gap < 0:  # the IK arm reaches through the floor
+        k = int(np.argmin(floor_gaps.min(axis=1)))
+        status = Status.INFEASIBLE
+        message = (f"s={poses.s[k]:.3f} (layer {k / m:g}): the arm reaches {-floor_gap:.4g} m "
+                   f"below the floor z = {problem.scene.ground:g} on the planned path")
     elif info["max_joint_limit_violation_rad"] > 1e-9:
         # The path ignores the limits (as [Nagatani] does, respect_joint_limits false), but a
         # plan that breaks the robot's limits is not one it can execute: never "reached".

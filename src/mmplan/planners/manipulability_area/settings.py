@@ -63,6 +63,13 @@ class ManipulabilityAreaSettings(PlannerSettings):
     )
     substeps: int = Field(default=1, ge=1, le=100,
                           description="trajectory rows (and exact checks) per layer interval")
+    tool_axis: tuple[float, float, float] = Field(
+        default=(0.0, 0.0, 1.0),
+        description="numeric IK (robots other than base-6dof): the axis of the end-effector "
+        "body's frame that points into the surface",
+    )
+    ik_seeds: int = Field(default=4, ge=1, le=100,
+                          description="numeric IK: random seeds per cell besides the continued one")
 
     @model_validator(mode="after")
     def _ranges(self) -> ManipulabilityAreaSettings:
@@ -81,4 +88,6 @@ class ManipulabilityAreaSettings(PlannerSettings):
                 "use a coarser resolution, smaller ranges or fewer layers",
                 {"key": "resolution"},
             )
+        if not (np.all(np.isfinite(self.tool_axis)) and np.linalg.norm(self.tool_axis) > 1e-12):
+            raise ValueError(f"tool_axis must be a finite non-zero vector, got {self.tool_axis}")
         return self

@@ -34,7 +34,11 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.errors import InputError
-from mmplan.planners.tracking.potentials import min_clearance_sym, sphere_distances
+from mmplan.planners.tracking.potentials import (
+    floor_distances,
+    min_clearance_sym,
+    sphere_distances,
+)
 from mmplan.planners.tracking.rollout import compile_step
 from mmplan.planners.tracking.settings import ImpedanceSettings
 from mmplan.robot.robot import Robot
@@ -63,7 +67,8 @@ class VirtualImpedance:
     """
 
     def __init__(
-        self, robot: Robot, obstacles: tuple[Obstacle, ...], settings: ImpedanceSettings
+        self, robot: Robot, obstacles: tuple[Obstacle, ...], settings: ImpedanceSettings,
+        ground: float | None = None,
     ) -> None:
         if robot.h != 0 or robot.n_platform != 3 or robot.n < 6:
             raise InputError(
@@ -114,7 +119,8 @@ class VirtualImpedance:
         self.task_matrix = ca.Function("task_matrix", [q], [J_t])
         state = ca.vertcat(q, delta)
         pairs = sphere_distances(s.collision_points, robot.collision_radii, obstacles)
-        aux = ca.vertcat(s.ee_position, err, sigma, min_clearance_sym(pairs))
+        floor = floor_distances(robot, ground)  # checked (stop rule), not avoided: no null space
+        aux = ca.vertcat(s.ee_position, err, sigma, min_clearance_sym(pairs, floor))
         self.step = compile_step(
             "impedance_step", state, ref, ca.vertcat(u, ddelta), aux, n, settings.dt
         )

@@ -35,7 +35,8 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start``."""
-        model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings)
+        model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings,
+                                      problem.scene.ground)
 
         def reference(t: float) -> Array:
             return np.concatenate([task.position(t), task.velocity(t)])
@@ -65,7 +66,8 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start`` (plus the two impedance filter states)."""
-        model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings)
+        model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings,
+                                 problem.scene.ground)
         state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
         return track(
             problem,

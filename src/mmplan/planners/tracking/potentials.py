@@ -2,6 +2,11 @@ r"""Null-space potentials of the pseudoinverse tracker ([AbdessemedDjebrani] s.2
 
 Both potentials are CasADi expressions in the generalized coordinates q, so that their
 gradients dV/dq come from automatic differentiation inside the compiled control step.
+
+The floor z = h (``Scene.ground``) is one more obstacle of V_2, a half-space acting on the
+ground spheres only (:mod:`mmplan.robot.ground`): its distance is the height above the floor,
+:math:`d_i = p_{i,z}(q) - r_i - h` (:func:`~mmplan.robot.ground.floor_clearance_sym`), with
+the same barrier term and the influence ``d0``.
 """
 
 from __future__ import annotations
@@ -12,6 +17,8 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.robot.ground import floor_clearance_sym
+from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 
 
@@ -84,10 +91,22 @@ def sphere_distances(
     ]
 
 
-def min_clearance_sym(pairs: Sequence[tuple[Obstacle, ca.SX]]) -> ca.SX:
-    """Smallest d_ij of :func:`sphere_distances` (1e3 when there are none)."""
+def floor_distances(robot: Robot, ground: float | None) -> list[ca.SX]:
+    """Heights d_i = z_i - r_i - h of the ground spheres above the floor z = ``ground``, as
+    scalar expressions in ``robot.symbols.q`` (none without a floor)."""
+    if ground is None:
+        return []
+    clearance = floor_clearance_sym(robot, ground)  # (G, 1)
+    return [clearance[i] for i in range(clearance.shape[0])]
+
+
+def min_clearance_sym(
+    pairs: Sequence[tuple[Obstacle, ca.SX]], floor: Sequence[ca.SX] = ()
+) -> ca.SX:
+    """Smallest d_ij of :func:`sphere_distances` and of the ``floor`` distances
+    (:func:`floor_distances`); 1e3 when there are none."""
     d_min = ca.SX(1e3)
-    for _, d in pairs:
+    for d in [d for _, d in pairs] + list(floor):
         d_min = ca.fmin(d_min, d)
     return d_min
 
@@ -99,6 +118,7 @@ def obstacle_potential(
     k1: float,
     d0: float,
     d_floor: float,
+    floor: Sequence[ca.SX] = (),
 ) -> tuple[ca.SX, ca.SX]:
     r"""Obstacle potential, [AbdessemedDjebrani] eqs. (31)-(32), over the robot's collision spheres.
 
@@ -106,21 +126,26 @@ def obstacle_potential(
               d_{ij} = \mathrm{dist}(p_i(q), O_j) - r_i
 
     with p_i the sphere centres, r_i their radii (0 for link points) and O_j the obstacles.
-    An obstacle's own ``influence`` (scenario key) replaces ``d0`` when set.
+    An obstacle's own ``influence`` (scenario key) replaces ``d0`` when set. The floor adds
+    one term per ground sphere, :math:`V_2(d_i)` with its height d_i above the floor and the
+    influence ``d0``.
 
     Args:
         points: Symbolic sphere centres (3, P) in world coordinates.
         radii: Sphere radii (P,) [m].
         obstacles: Scene obstacles.
         k1, d0, d_floor: See :func:`barrier_term`.
+        floor: Heights of the ground spheres above the floor (:func:`floor_distances`).
 
     Returns:
-        (V_2, d_min): the potential and the smallest distance d_ij (the planner's clearance;
-        1e3 when there are no obstacles).
+        (V_2, d_min): the potential and the smallest distance d_ij or d_i (the planner's
+        clearance; 1e3 when there are no obstacles and no floor).
     """
     pairs = sphere_distances(points, radii, obstacles)
     total = ca.SX(0)
     for obstacle, d in pairs:
         influence = obstacle.influence if obstacle.influence is not None else d0
         total += barrier_term(d, k1, influence, d_floor)
-    return total, min_clearance_sym(pairs)
+    for d in floor:
+        total += barrier_term(d, k1, d0, d_floor)
+    return total, min_clearance_sym(pairs, floor)

@@ -32,7 +32,11 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.errors import InputError
-from mmplan.planners.tracking.potentials import joint_limit_potential, obstacle_potential
+from mmplan.planners.tracking.potentials import (
+    floor_distances,
+    joint_limit_potential,
+    obstacle_potential,
+)
 from mmplan.planners.tracking.rollout import compile_step
 from mmplan.planners.tracking.settings import PseudoinverseSettings
 from mmplan.robot.robot import Robot
@@ -78,7 +82,8 @@ class WeightedPseudoinverse:
     """
 
     def __init__(
-        self, robot: Robot, obstacles: Sequence[Obstacle], settings: PseudoinverseSettings
+        self, robot: Robot, obstacles: Sequence[Obstacle], settings: PseudoinverseSettings,
+        ground: float | None = None,
     ) -> None:
         self.robot = robot
         self.settings = settings
@@ -95,6 +100,7 @@ class WeightedPseudoinverse:
             settings.k1,
             settings.d0,
             settings.d_floor,
+            floor_distances(robot, ground),  # the floor z = ground (None: none)
         )
         z = -settings.beta1 * ca.gradient(V1, q) - settings.beta2 * ca.gradient(V2, q)
         w_inv = ca.DM(np.diag(1.0 / self.w))

@@ -15,6 +15,7 @@ also picks the least-violating u. No escape push acts online (ext = 0).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -28,7 +29,7 @@ _INF = float("inf")
 
 def _violation(u: ca.SX, a: ca.SX, b: ca.SX, lo: Array, hi: Array) -> ca.SX:
     """Largest amount by which a u + b leaves [lo, hi] (0 inside), finite limits only."""
-    worst = ca.SX(0.0)
+    worst = type(a)(0.0)
     for i in range(len(lo)):
         tau = a[i] * u + b[i]
         if np.isfinite(hi[i]):
@@ -45,7 +46,8 @@ def choose_sym(u_nominal: ca.SX, a: ca.SX, b: ca.SX, lo: Array, hi: Array) -> tu
     ok = 1 when u_nominal keeps the zone or the interval [u_min, u_max] of eqs. (28)-(29)
     is not empty (eq. (30)); u is then u_nominal clipped to it.
     """
-    u_max, u_min, idle_out = ca.SX(1.0), ca.SX(0.0), ca.SX(0.0)
+    T = type(a)  # SX or MX
+    u_max, u_min, idle_out = T(1.0), T(0.0), T(0.0)
     for i in range(len(lo)):
         pos, neg = a[i] > _TINY, a[i] < -_TINY
         idle = 1 - pos - neg
@@ -88,22 +90,24 @@ def build_online(
         growth, rates: Growth law and (rho, rho_min, rho_max).
         cse: Merge common subexpressions (for C code; changes no value).
     """
-    x = ca.SX.sym("x", 2 * n + 8)
+    # SX, or MX for a terms function made of calls (the culled obstacle terms)
+    T: Any = ca.MX if terms.is_a("MXFunction") else ca.SX
+    x: Any = T.sym("x", 2 * n + 2 + terms.size1_in(terms.n_in() - 1))
     q, dq, u_prev, first, p = x[:n], x[n : 2 * n], x[2 * n], x[2 * n + 1], x[2 * n + 2 :]
     f0, fv, fp, S, T0, Tm, err, _Tg, _gK = terms(q, dq, p)
     pert = fp - S * dq
-    u, s, ok = ca.SX(1.0), ca.SX(1.0), ca.SX(1.0)
+    u, s, ok = T(1.0), T(1.0), T(1.0)
     if torque_control:
         lo, hi = (np.asarray(z, dtype=float) for z in zone)
         b_base = T0 + Tm @ f0
         if budget_perturbation:
-            s_fit, ok_s = choose_sym(ca.SX(1.0), Tm @ pert, b_base, lo, hi)
+            s_fit, ok_s = choose_sym(T(1.0), Tm @ pert, b_base, lo, hi)
             s = ca.if_else(S > 0.0, s_fit, 1.0)
             ok = ca.if_else(S > 0.0, ok_s, 1.0)
         b = b_base + s * (Tm @ pert)
         rho, rho_min, rho_max = rates
         if growth is vc.Growth.CONSTANT:
-            rate = ca.SX(rho)
+            rate = T(rho)
         else:
             rate = 1.0 / (rho_max - (rho_max - rho_min) * ca.exp(-err))
         u_nom = ca.if_else(first, 0.0, 1.0 - (1.0 - u_prev) * ca.exp(-rate * dt))

@@ -19,6 +19,7 @@ import casadi as ca
 
 from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
+from mmplan.planners.extended_jacobian.functions import LazyFunction
 from mmplan.planners.extended_jacobian.generator import CFLAGS, GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import decision_symbolic as ej_decision_sym
@@ -38,6 +39,19 @@ def _args(opt: RolloutOptions) -> _Args:
     )
 
 
+def _terms(fns: GeneratorFunctions, culled: bool = False) -> ca.Function:
+    """``terms`` (built now if the generator came from the disk cache); with ``culled`` the
+    one with the culled obstacle calls when there is one (for C code: the full obstacle sum
+    over every slot made the online step 4x slower)."""
+    if "symbolic" in fns.cache:  # loaded from the disk cache (compiled.py)
+        fns = fns.cache["symbolic"]()
+    if culled and "culled_terms" in fns.cache:
+        made: ca.Function = fns.cache["culled_terms"]()
+        return made
+    fn = fns.terms
+    return fn.function if isinstance(fn, LazyFunction) else fn
+
+
 def online_function(
     fns: GeneratorFunctions, opt: RolloutOptions, notify: Callable[[str], None] | None = None
 ) -> tuple[ca.Function, str | None]:
@@ -48,16 +62,17 @@ def online_function(
         fn, library = None, None
         if fns.compiled:
             source = Path(ej_decision_sym.__file__).read_text()
-            cache_key = "\n".join([fns.terms.serialize(), repr(args), source])
+            model = fns.key or fns.terms.serialize()  # the disk key: no model build
+            cache_key = "\n".join([model, repr(args), source])
 
             def make() -> list[ca.Function]:
-                return [ej_decision_sym.build_online(fns.terms, fns.n, *args, cse=True)]
+                return [ej_decision_sym.build_online(_terms(fns, True), fns.n, *args, cse=True)]
 
             library = cg.compile_library(make, "ej_online", CFLAGS, notify, cache_key)
             if library is not None:
                 fn = cg.load(["mmplan_ej_online"], library)[0]
         if fn is None:
-            fn = ej_decision_sym.build_online(fns.terms, fns.n, *args)
+            fn = ej_decision_sym.build_online(_terms(fns), fns.n, *args)
         fns.cache[key] = (fn, library)
     fn, library = fns.cache[key]
     return fn, library
@@ -70,12 +85,12 @@ def feedback_chunk(fns: GeneratorFunctions, opt: RolloutOptions) -> ca.Function 
     key = "chunk" + repr(_args(opt))
     if key not in fns.cache:
         online, _ = online_function(fns, opt)
-        n, a = fns.n, fns.n_act
+        n, a, k = fns.n, fns.n_act, fns.layout.size
         x = ca.MX.sym("x", 2 * n + 2)
-        par = ca.MX.sym("par", 7)
-        d = online(ca.vertcat(x, par[:6]))
+        par = ca.MX.sym("par", k + 1)
+        d = online(ca.vertcat(x, par[:k]))
         u, s, ok = d[n + a], d[n + a + 1], d[n + a + 2]
-        x_next, rec = fns.record(x[: 2 * n], ca.vertcat(par[:6], u, s, ca.MX.zeros(n), par[6]))
+        x_next, rec = fns.record(x[: 2 * n], ca.vertcat(par[:k], u, s, ca.MX.zeros(n), par[k]))
         step = ca.Function(
             "mmplan_ej_feedback_step",
             [x, par],
@@ -83,7 +98,7 @@ def feedback_chunk(fns: GeneratorFunctions, opt: RolloutOptions) -> ca.Function 
         )
         steps = fns.chunk_steps
         acc = step.mapaccum("mmplan_ej_feedback_acc", steps)
-        x0, p0 = ca.MX.sym("x0", 2 * n + 2), ca.MX.sym("p0", 7)
+        x0, p0 = ca.MX.sym("x0", 2 * n + 2), ca.MX.sym("p0", k + 1)
         X, R = acc(x0, ca.repmat(p0, 1, steps))
         fns.cache[key] = ca.Function("mmplan_ej_feedback_chunk", [x0, p0], [X, R])
     chunk: ca.Function = fns.cache[key]

@@ -1,0 +1,134 @@
+"""The compiled generator on disk: found again on a later run without building the model.
+
+A compiled generator library (:mod:`~mmplan.planners.extended_jacobian.generator`) is keyed by
+:func:`disk_key`: the robot model (:func:`mmplan.compile.fingerprint.robot_fingerprint`),
+the obstacle shape types with their slot counts, the settings that enter the symbolic model
+and the code version (every source file of this package and of :mod:`mmplan.compile`).
+Next to the library a small JSON file records the parameter layout and the sizes, so that
+:func:`load` returns working functions straight from the library: no criterion, no
+symbolic step, no code generation (the SX ``terms`` is built only if something asks for
+it). Scenes, goals and partitions are numbers in p
+(:mod:`~mmplan.planners.extended_jacobian.parameters`), so they never change the key.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+
+from mmplan.compile import codegen as cg
+from mmplan.compile.fingerprint import robot_fingerprint, source_fingerprint
+from mmplan.planners.extended_jacobian.functions import GeneratorFunctions, LazyFunction
+from mmplan.planners.extended_jacobian.parameters import ParameterLayout, Shape
+
+#: Functions of the library, loaded by name (``mmplan_ej_<name>``).
+NAMES = ("terms_flat", "step_flat", "chunk", "record_step", "effort", "E")
+#: C compiler flags of the generated generator (measured: -O2 about 2x faster than -O1 here,
+#: -O3 -ffast-math no faster and 3x slower to compile).
+CFLAGS = ("-O2", "-march=native")
+
+
+def _code_files() -> list[Path]:
+    here = Path(__file__).parent
+    return [*here.rglob("*.py"), *Path(cg.__file__).parent.glob("*.py")]
+
+
+def disk_key(
+    robot: Any,
+    slots: Sequence[tuple[Shape, int]],
+    settings: Sequence[Any],
+    partition: Sequence[int] | None = None,
+) -> str:
+    """Key of the compiled generator of ``robot`` with these slots and model settings
+    (``partition``: a partition built in, None when it is a parameter)."""
+    parts = [
+        robot_fingerprint(robot),
+        repr(tuple(slots)),
+        repr(tuple(settings)),
+        repr(None if partition is None else tuple(partition)),
+        source_fingerprint(_code_files()),
+        repr(CFLAGS),
+    ]
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
+
+
+def _meta_path(key: str) -> Path:
+    return cg.cache_dir() / f"ej_{key}.json"
+
+
+def save(key: str, fns: GeneratorFunctions, library: str) -> None:
+    """Record the layout and sizes of a freshly compiled library (atomic write)."""
+    lay = fns.layout
+    meta = {
+        "library": library,
+        "n": fns.n,
+        "n_act": fns.n_act,
+        "layout": {
+            "slots": [[list(e), k] for e, k in lay.slots],
+            "heading": lay.heading,
+            "n_arm": lay.n_arm,
+            "n_platform": lay.n_platform,
+            "choices": list(lay.choices),
+        },
+    }
+    path = _meta_path(key)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as out:
+            json.dump(meta, out)
+        os.replace(tmp, path)
+    except OSError:
+        pass  # no cache: the next run compiles again
+
+
+def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunctions | None:
+    """The compiled generator stored under ``key``, None when absent or unreadable.
+
+    Args:
+        key: :func:`disk_key`.
+        symbolic: Builds the SX generator; called only if the SX ``terms`` is needed.
+    """
+    path = _meta_path(key)
+    if cg.compiler() is None or not path.exists():
+        return None
+    try:
+        meta = json.loads(path.read_text())
+        library = str(meta["library"])
+        lay = meta["layout"]
+        layout = ParameterLayout(
+            tuple(((float(e[0]), float(e[1])), int(k)) for e, k in lay["slots"]),
+            bool(lay["heading"]),
+            int(lay["n_arm"]),
+            int(lay["n_platform"]),
+            tuple(int(i) for i in lay["choices"]),
+        )
+        terms_flat, step_flat, chunk, record, effort, E = cg.load(
+            [f"mmplan_ej_{x}" for x in NAMES], library
+        )
+        native = cg.NativeFunction(library, "mmplan_ej_chunk_flat")
+    except (OSError, ValueError, KeyError, TypeError, RuntimeError):
+        return None
+    reference: dict[str, GeneratorFunctions] = {}
+
+    def built() -> GeneratorFunctions:
+        if "fns" not in reference:
+            reference["fns"] = symbolic()
+        return reference["fns"]
+
+    def terms() -> ca.Function:
+        fn = built().terms
+        return fn.function if isinstance(fn, LazyFunction) else fn
+
+    return GeneratorFunctions(
+        None, LazyFunction(terms), E, int(meta["n"]), int(meta["n_act"]), True, terms_flat,
+        step_flat, effort, chunk, record=record, native_chunk=native, layout=layout, key=key,
+        cache={"symbolic": built},
+    )  # fmt: skip
