@@ -283,14 +283,16 @@ def test_tiago_report_shows_its_link_meshes_and_plays(tmp_path: Path) -> None:
     assert seen["clock"] == f"t = {seen['played']:.2f} s of 3.98 s"
 
 
-@pytest.mark.parametrize("name", ["tiago-wall-segment"])
+@pytest.mark.skipif(not os.environ.get("MMPLAN_SLOW_TESTS"),
+                    reason="45 s each (plan + report + browser); MMPLAN_SLOW_TESTS=1 runs it; "
+                           "the TIAGo URDF report is covered by the test above")
+@pytest.mark.parametrize("name", ["tiago-wall-line", "tiago-wall-segment"])
 def test_builtin_tiago_reports_show_the_robot(name: str, tmp_path: Path) -> None:
     """Built-in TIAGo scenarios given as a URDF entry (the pen robot) planned from the CLI
     (``mmplan plan NAME --out D --report``; a tracking plan and a manipulability-area plan,
     whose t is the segment parameter): the report's 3D view holds TIAGo's bodies drawn with
     its URDF link meshes, with a silent console. (tiago-table, robot ``tiago``, passes the
-    same probe, and so does tiago-wall-line (the pen robot, a tracking plan); left out for CI
-    time: each adds 30-45 s.)"""
+    same probe; left out: its plan takes longest.)"""
     _tiago_data()
     browser = _browser()
     folder = tmp_path / "plan"

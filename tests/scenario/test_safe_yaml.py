@@ -73,7 +73,9 @@ def test_a_rejected_value_is_shown_cut(tmp_path: Path) -> None:
 def test_deep_nesting_is_refused(tmp_path: Path) -> None:
     """1000 nested lists: before, RecursionError (exit 1)."""
     message = refused(tmp_path, HEAD + "start: " + "[" * 1000 + "]" * 1000 + "\n")
-    assert f"start{'[0]' * (MAX_DEPTH - 2)}" in message
+    # the path of the refused value: ours at MAX_DEPTH, or where libyaml's own flow-nesting
+    # limit (PyYAML >= 6.0.4, C scanner) stops it first
+    assert re.search(r": start(\[0\])*: nested", message), message
     assert f"nested more than {MAX_DEPTH} levels deep (line 5, column" in message
     message = refused(tmp_path, HEAD + "start:\n" + "- " * 5000 + "1\n")  # block sequences
     assert f"nested more than {MAX_DEPTH} levels deep" in message

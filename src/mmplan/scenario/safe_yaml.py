@@ -192,6 +192,15 @@ def _check_structure(text: str) -> None:
                     parent.height = max(parent.height, target.height + 1)
             if parent is not None:
                 _advance(parent, key)
+    except yaml.MarkedYAMLError as err:
+        # libyaml (PyYAML >= 6.0.4 with the C scanner) refuses deep flow nesting itself while
+        # scanning ahead, before the events reach the depth test above: the same refusal
+        if "maximum nesting depth" not in str(err.problem):
+            raise
+        mark = err.problem_mark
+        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "unknown position"
+        raise StructureError(_path(stack), f"nested more than {MAX_DEPTH} levels deep ({where})"
+                             ) from None
     finally:
         loader.dispose()
 
