@@ -35,16 +35,12 @@ from tests.robot.urdf_oracle import robot_data_dir
 #:   Jc_R^-T H_R): 12/30 (4 diverged, 7 stalled, 6 timeouts);
 #:   + table goals with room for the hand (its spheres reach 0.34 m past the flange): 16/30;
 #:   + stall test relative to the error, joint-limit fade within 0.3 of a short range: 18/30
-#:   (20 reached; t_max 30 s: 18/30, 19 reached).
+#:   (20 reached; t_max 30 s: 18/30, 19 reached);
+#:   + re-timing consistent with q, the floor, obstacles as parameters: 19/30 reached, all
+#:   19 pass the checker (10 timeouts, 1 diverged; 2026-11-24).
 #: Not reached: stalls and timeouts among 2-4 obstacles, or beside a pillar that keeps the
 #: base from a high goal (local minima the tangential escape does not leave).
-REACHED_FLOOR = 0.56
-#: Reached plans that fail exactly one check: the time-optimal scaling brings the robot to
-#: a halt at a sample (w = 1e-7) after an escape push reversed the path, and the trapezoid
-#: of dq over that 0.08 s step misses q by up to 0.15 rad/s (> 1 % of the peak wheel rate).
-#: A time-scaling issue (mmplan.time_scaling.retime), reported; the paths are collision-free
-#: and within every limit.
-KNOWN_CHECK = "dq consistency"
+REACHED_FLOOR = 0.6
 HONEST = {Status.STALLED, Status.DIVERGED, Status.INFEASIBLE, Status.TIMEOUT}
 
 
@@ -99,14 +95,16 @@ def test_set_covers_directions_heights_tables_and_obstacles() -> None:
 
 
 def test_reached_plans_pass_the_checker(outcomes: list[Outcome]) -> None:
-    """Every reached plan passes mmplan.check (but for the one known time-scaling check)."""
+    """Every reached plan passes every check of mmplan.check; so does every plan that stopped
+    early without diverging (timeout, stalled: a consistent motion that ends short of the
+    goal). Before the re-timing capped the steps whose dq missed q (2026-11-24), one reached
+    plan and nine timeouts failed the dq-consistency check (0.11-0.16 /s per step)."""
     bad: dict[str, list[str]] = {}
     for o in outcomes:
-        if not o.result.reached:
-            continue
-        failures = [f for f in o.report.failures() if not f.startswith(KNOWN_CHECK)]
-        if failures:
-            bad[str(o.data["name"])] = failures
+        if o.result.reached or o.result.status in (Status.TIMEOUT, Status.STALLED):
+            failures = o.report.failures()
+            if failures:
+                bad[f"{o.data['name']} ({o.result.status.value})"] = failures
     assert bad == {}
 
 
