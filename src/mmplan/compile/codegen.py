@@ -17,6 +17,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -88,6 +89,11 @@ def compile_library(
         return str(library)
     if notify is not None:
         notify(f"compiling {prefix} to C (once; cached in {library.parent})")
+    return str(library) if _build(cc, source, library, prefix, flags) else None
+
+
+def _build(cc: str, source: str, library: Path, prefix: str, flags: Sequence[str]) -> bool:
+    """Compile ``source`` into ``library`` (atomic rename); False on failure."""
     try:
         library.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(dir=library.parent) as tmp:
@@ -101,8 +107,29 @@ def compile_library(
             )
             os.replace(so_file, library)
     except (OSError, subprocess.SubprocessError):
+        return False
+    return True
+
+
+def start_build(
+    make: Callable[[], Sequence[ca.Function]],
+    prefix: str,
+    key: str,
+    flags: Sequence[str] = ("-O2",),
+) -> threading.Thread | None:
+    """Start building the library :func:`compile_library` would build under ``key``: the C
+    source is generated here (CasADi is used from this thread only), the compiler runs in a
+    background thread (returned; join it before :func:`compile_library` looks for the file).
+    None when the library exists or there is no compiler."""
+    cc = compiler()
+    library = _library(key, prefix, flags)
+    if cc is None or library.exists():
         return None
-    return str(library)
+    source = _source(make())
+    thread = threading.Thread(target=_build, args=(cc, source, library, prefix, flags),
+                              daemon=True)  # fmt: skip
+    thread.start()
+    return thread
 
 
 def compile_function(

@@ -36,6 +36,7 @@ than the passes themselves.
 from __future__ import annotations
 
 import hashlib
+import threading
 from functools import lru_cache
 from pathlib import Path
 from typing import Protocol
@@ -49,11 +50,20 @@ from mmplan.compile import codegen
 BIG = 1e30  # stands for an infinite limit (never binds: 0 <= x <= x_upper, |v| <= 1e6)
 V_BOX = 1e6  # |v| bound of the reference LP
 TOL = 1e-9  # emptiness slack (the reference accepts vertices 1e-9 outside a row)
-CHUNK = 256  # intervals per compiled call
+#: Intervals per compiled call. A call runs all of them (rows past the end feed discarded steps),
+#: so a backward pass restarted at interval m (the re-timing rounds, :mod:`.retime`) costs
+#: ceil((m + 1) / CHUNK) calls: 64 instead of 256 cut the backward passes of a
+#: youbot3r-obstacles-torque plan from 19.3 to 13.6-14.7 ms (same results).
+CHUNK = 64
 #: Above this many rows the backward step projects its slab pairs by one mapped function
 #: instead of straight-line code: gcc took 28 s for the straight-line step of 14 rows
 #: (2.4 s mapped, which runs about 1.35x slower; 1.8 s straight-line for 5 rows).
 MAPPED_ABOVE = 8
+#: C compiler flags of the passes. -O1 builds in 1.03-1.08 s against 1.46-1.74 s for -O2 (15
+#: rows: youbot-3r with torque and rate limits; 3 alternating builds each, load ~2 on 2 cores)
+#: with the same plans to the bit, but its backward pass runs 12 % slower (15.1-15.4 ms against
+#: 13.4-13.9 ms a youbot3r-obstacles-torque plan): a build is once per row count, a plan often.
+FLAGS = ("-O2",)
 RAW = 3  # (n,) blocks of a raw sample: alpha, beta, g; then sigma and x_upper
 
 Slab = tuple[ca.SX, ca.SX, ca.SX, ca.SX]
@@ -210,21 +220,55 @@ def _flat(step: ca.Function, name: str, n: int) -> ca.Function:
     return ca.Function(name, [z], [ca.vertcat(states[:, -1], ca.vec(out.T))])
 
 
+def _names(n: int) -> tuple[str, str]:
+    return f"ej_topp_bw{n}", f"ej_topp_fw{n}"
+
+
+def _make(n: int) -> list[ca.Function]:
+    """The (backward, forward) chunk functions for n rows."""
+    names = _names(n)
+    return [_flat(backward_step(n), names[0], n), _flat(forward_step(n), names[1], n)]
+
+
+def _key(n: int) -> str:
+    digest = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+    return f"ej_topp {n} {CHUNK} {digest}"
+
+
 @lru_cache(maxsize=8)
 def passes(n: int) -> tuple[_Chunk, _Chunk]:
     """(backward, forward) chunk passes for n constraint rows: compiled and cached on disk by
     :func:`codegen.compile_library` (built once per n and chunk length), else the VM."""
-    names = (f"ej_topp_bw{n}", f"ej_topp_fw{n}")
-
-    def make() -> list[ca.Function]:
-        return [_flat(backward_step(n), names[0], n), _flat(forward_step(n), names[1], n)]
-
-    digest = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
-    library = codegen.compile_library(make, "ej_topp", key=f"ej_topp {n} {CHUNK} {digest}")
+    names = _names(n)
+    library = codegen.compile_library(lambda: _make(n), "ej_topp", FLAGS, key=_key(n))
     if library is not None:
         return codegen.NativeFunction(library, names[0]), codegen.NativeFunction(library, names[1])
-    bw, fw = make()
+    bw, fw = _make(n)
     return _VMChunk(bw), _VMChunk(fw)
+
+
+_PENDING: dict[int, threading.Thread] = {}
+
+
+def prefetch(n: int) -> None:
+    """Start compiling the passes for n rows when their library is not on disk yet: the C
+    source is generated now, the compiler runs in a background thread while the caller
+    compiles something else (the first plan of a robot: the generator's library, measured
+    4.8 s, and this one, 1.7 s, on two cores); the passes wait for it (:func:`_ready`). A
+    no-op when the library is cached or being built, or without a compiler."""
+    if n in _PENDING:
+        return
+    thread = codegen.start_build(lambda: _make(n), "ej_topp", _key(n), FLAGS)
+    if thread is not None:
+        _PENDING[n] = thread
+
+
+def _ready(n: int) -> tuple[_Chunk, _Chunk]:
+    """:func:`passes`, after a build :func:`prefetch` started has finished."""
+    pending = _PENDING.pop(n, None)
+    if pending is not None:
+        pending.join()
+    return passes(n)
 
 
 def _fill(buf: Array, columns: list[Array], sel: slice) -> None:
@@ -247,13 +291,18 @@ def backward(
     x_upper: Array,
     zone: Array,
     last: tuple[float, float],
+    start: int | None = None,
 ) -> tuple[Array, Array, Array]:
-    """K_lo, K_hi and the empty flags of samples 0 .. N-2, from ``last`` = [K_lo, K_hi] of
-    sample N - 1; ``zone`` = [lo (n), hi (n)] with +-BIG for infinite limits."""
-    N, n = alpha.shape
-    chunk = passes(n)[0]
+    """K_lo, K_hi and the empty flags of samples 0 .. ``start`` (default N - 2), from ``last``
+    = [K_lo, K_hi] of sample ``start`` + 1; ``zone`` = [lo (n), hi (n)] with +-BIG for
+    infinite limits. The same steps give the same values whatever the first interval."""
+    n = alpha.shape[1]
+    N = len(alpha) if start is None else start + 2
+    chunk = _ready(n)[0]
     n_s = 2 + 2 * n + RAW * n + 2
-    state = np.concatenate([last, zone, alpha[-1], beta[-1], g[-1], sigma[-1:], x_upper[-1:]])
+    k = N - 1
+    state = np.concatenate([last, zone, alpha[k], beta[k], g[k], sigma[k : k + 1],
+                            x_upper[k : k + 1]])  # fmt: skip
     out = np.empty((3, N - 1))
     for top in range(N - 2, -1, -CHUNK):  # intervals top, top - 1, ..., top - CHUNK + 1
         sel = slice(top, top - CHUNK if top >= CHUNK else None, -1)
@@ -279,7 +328,7 @@ def forward(
 ) -> Array:
     """x_1 .. x_{N-1} of the greedy pass from x_0 = ``x_start`` (``zone`` as :func:`backward`)."""
     N, n = alpha.shape
-    chunk = passes(n)[1]
+    chunk = _ready(n)[1]
     n_s = 1 + 2 * n + RAW * n + 2
     state = np.concatenate([[x_start], zone, alpha[0], beta[0], g[0], sigma[:1], x_upper[:1]])
     x = np.empty(N - 1)

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.time_scaling.rates import RateModel
-from mmplan.time_scaling.topp import Scaling, time_optimal_scaling
+from mmplan.time_scaling.topp import Scaling, scaling_with_sets, time_optimal_scaling
 
 Array = NDArray[np.float64]
 
@@ -82,16 +82,20 @@ def retime_path(
     tight = np.ones((N, 0 if rr is None else len(rr.hi)))  # factor on each rate row
     x_cap = np.ones(N)  # factor on x_upper
     rounds, ratio = 0, 0.0
+    # A round changes the constraints only up to the last end sample it tightened: the
+    # controllable sets after it are those of the round before (:func:`.topp.scaling_with_sets`).
+    reuse: tuple[Array, Array, int] | None = None
     while True:
         rounds += 1
         if rr is None:
             sc = time_optimal_scaling(sigma, *extra, w_max=w_max, x_start=x_start)
         else:
-            sc = time_optimal_scaling(
+            sc, k_lo, k_hi = scaling_with_sets(
                 sigma, np.hstack([extra[0], rr.alpha * tight]),
                 np.hstack([extra[1], rr.beta * tight]), np.hstack([extra[2], rr.g]),
                 np.concatenate([extra[3], rr.lo]), np.concatenate([extra[4], rr.hi]),
                 w_max=w_max, x_upper=np.minimum(rr.x_upper, w_max**2) * x_cap, x_start=x_start,
+                reuse=reuse,
             )  # fmt: skip
         w = np.sqrt(sc.x)
         dq = w[:, None] * dq_ds
@@ -113,7 +117,11 @@ def retime_path(
             dq, ddq = dq / c, ddq / c**2
             ratio = float(np.max(model.interval_ratios(sc.t, q, dq), initial=0.0))
             return Retimed(sc, dq, ddq, rounds, ratio)
+        before_tight, before_cap = tight.copy(), x_cap.copy()
         _tighten(model, rr.quantity, peaks, tight, x_cap)
+        changed = np.flatnonzero(np.any(tight != before_tight, axis=1) | (x_cap != before_cap))
+        last_changed = int(changed[-1]) if len(changed) else len(sigma) - 1
+        reuse = (k_lo, k_hi, last_changed) if sc.first_empty is None else None
 
 
 def _tighten(

@@ -256,12 +256,36 @@ def time_optimal_scaling(
     Raises:
         ValueError: x is unbounded at some sample (infinite w_max and x_upper).
     """
+    return scaling_with_sets(sigma, alpha, beta, g, lo, hi, w_max, x_upper, x_start)[0]
+
+
+def scaling_with_sets(
+    sigma: Array,
+    alpha: Array,
+    beta: Array,
+    g: Array,
+    lo: Array,
+    hi: Array,
+    w_max: float = 1.0,
+    x_upper: Array | None = None,
+    x_start: float | None = 0.0,
+    reuse: tuple[Array, Array, int] | None = None,
+) -> tuple[Scaling, Array, Array]:
+    """:func:`time_optimal_scaling` and its controllable sets (K_lo, K_hi).
+
+    Args:
+        reuse: (K_lo, K_hi, m) of an earlier call on a feasible problem (every set non-empty)
+            whose inputs equal these at every sample after m: K_i depends only on the
+            samples i .. N - 1, so the sets after m are taken as they are and the backward
+            pass starts at interval m (same values as a full pass, to the bit).
+    """
     sigma = np.ascontiguousarray(sigma, dtype=float)
     alpha, beta, g = (np.ascontiguousarray(m, dtype=float) for m in (alpha, beta, g))
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     N = len(alpha)
     if N < 2:
-        return reference_scaling(sigma, alpha, beta, g, lo, hi, w_max, x_upper, x_start)
+        sc = reference_scaling(sigma, alpha, beta, g, lo, hi, w_max, x_upper, x_start)
+        return sc, np.zeros(N), np.zeros(N)
     delta = np.diff(sigma)
     x_up = np.ascontiguousarray(_upper(N, w_max, x_upper))
     zone_lo = np.where(np.isfinite(lo), lo, -BIG)
@@ -269,18 +293,25 @@ def time_optimal_scaling(
     zone = np.concatenate([zone_lo, zone_hi])
     K_lo, K_hi = np.zeros(N), np.zeros(N)
     first_empty: int | None = N - 1
-    last = _last_set(alpha[-1], zone_lo - g[-1], zone_hi - g[-1], float(x_up[-1]))
+    top = N - 2  # first interval of the backward pass
+    if reuse is not None and reuse[2] < N - 2:
+        top = max(reuse[2], 0)
+        K_lo[top + 1 :], K_hi[top + 1 :] = reuse[0][top + 1 :], reuse[1][top + 1 :]
+        last: tuple[float, float] | None = (float(K_lo[top + 1]), float(K_hi[top + 1]))
+    else:
+        last = _last_set(alpha[-1], zone_lo - g[-1], zone_hi - g[-1], float(x_up[-1]))
+        if last is not None:
+            K_lo[-1], K_hi[-1] = last
     if last is not None:
-        K_lo[-1], K_hi[-1] = last
-        lo_sets, hi_sets, empty = passes.backward(alpha, beta, g, sigma, x_up, zone, last)
+        lo_sets, hi_sets, empty = passes.backward(alpha, beta, g, sigma, x_up, zone, last, top)
         where = np.flatnonzero(empty > 0.5)
         first_empty = int(where[-1]) if len(where) else None
         start = 0 if first_empty is None else first_empty + 1
-        K_lo[start:-1], K_hi[start:-1] = lo_sets[start:], hi_sets[start:]
+        K_lo[start : top + 1], K_hi[start : top + 1] = lo_sets[start:], hi_sets[start:]
     x0, feasible = _start(x_start, K_lo[0], K_hi[0], first_empty)
     x, v = np.zeros(N), np.zeros(N)
     if feasible:
         x[0] = x0
         x[1:] = passes.forward(alpha, beta, g, sigma, x_up, zone, K_lo, K_hi, x0)
         v[:-1] = (x[1:] - x[:-1]) / delta
-    return Scaling(x, v, _times(x, delta), feasible, first_empty)
+    return Scaling(x, v, _times(x, delta), feasible, first_empty), K_lo, K_hi

@@ -31,7 +31,12 @@ from mmplan.planners.extended_jacobian.parameters import ParameterLayout, Shape
 #: Functions of the library, loaded by name (``mmplan_ej_<name>``).
 NAMES = ("terms_flat", "step_flat", "chunk", "record_step", "effort", "E")
 #: C compiler flags of the generated generator (measured: -O2 about 2x faster than -O1 here,
-#: -O3 -ffast-math no faster and 3x slower to compile).
+#: -O3 -ffast-math no faster and 3x slower to compile). Re-measured on youbot-3r with two
+#: obstacle slots (677 kB of C, 3 alternating builds, load ~2 on 2 cores): gcc 4.64-4.74 s
+#: with -O2 -march=native, 3.28-3.55 s with -O1 -march=native, whose rollout chunks ran only
+#: 3 % slower (10.2-10.4 ms against 9.9 ms a youbot3r-obstacles-torque plan) but whose plans
+#: differ in the last digits (4.6e-9 at most in trajectory.csv): kept at -O2 so that plans
+#: stay the same to the bit.
 CFLAGS = ("-O2", "-march=native")
 
 

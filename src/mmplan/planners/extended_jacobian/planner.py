@@ -56,9 +56,14 @@ from mmplan.planners.extended_jacobian.replan import Replanner
 from mmplan.planners.extended_jacobian.rollout import rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
 from mmplan.planners.extended_jacobian.switching import PartitionSwitch
-from mmplan.planners.extended_jacobian.time_scaling import retime, rollout_time_scaled
+from mmplan.planners.extended_jacobian.time_scaling import (
+    retime,
+    rollout_time_scaled,
+    scaling_rows,
+)
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint, completion_time
+from mmplan.time_scaling import passes as topp_passes
 from mmplan.trajectory import Solution, Status, Trajectory
 
 
@@ -177,6 +182,16 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         posture = tuple(float(b) for b in posture_weights(robot, settings.posture_weight))
         heading = heading_reference(robot, q0, p_f)
         slots = slots_for([ob.model.exponents for ob in obstacles])  # type: ignore[attr-defined]
+        options = RolloutOptions.from_settings(settings, robot, task.tolerance)
+        mode = settings.virtual_control.mode
+        if mode == "auto":
+            mode = "time" if obstacles else "feedback"
+        # Rate limits without torque control: the free path, scaled (time mode).
+        time_scaling = (options.torque_control and mode == "time") or (
+            options.rates is not None and not options.torque_control
+        )
+        if time_scaling or options.rates is not None:  # the passes compile alongside the
+            topp_passes.prefetch(scaling_rows(len(robot.actuators), options))  # generator
         built = ej_cache.generator(
             robot,
             partition,
@@ -190,7 +205,6 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             notify=cg.notice,
         )
         fns, build_time = built.fns, built.build_time
-        options = RolloutOptions.from_settings(settings, robot, task.tolerance)
         params = fns.layout.pack(
             p_f, options.gains, [(ob.model, ob.influence) for ob in obstacles], ground,
             partition if fns.layout.n_arm else None, heading,
@@ -198,14 +212,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
         if options.torque_control:
             ej_checks.check_gravity(robot, q0)
-        vcs = settings.virtual_control
-        mode = vcs.mode
-        if mode == "auto":
-            mode = "time" if obstacles else "feedback"
-        # Rate limits without torque control: the free path, scaled (time mode).
-        time_scaling = (options.torque_control and mode == "time") or (
-            options.rates is not None and not options.torque_control
-        )
+
         def build(other: Partition) -> GeneratorFunctions:
             if fns.layout.supports(other):  # a value of p: the same (compiled) functions
                 return fns
