@@ -74,17 +74,19 @@ def extent(robot: Robot, start: Array) -> tuple[Array, float]:
         q[arm] = rng.uniform(lo, hi)
         configs.append(q)
 
-    def points(q: Array) -> tuple[Array, Array]:
-        pts = robot.collision_points(q) if robot.collision else np.zeros((0, 3))
-        return (np.vstack([pts, robot.ee_position(q)[None, :]]),
-                np.append(robot.collision_radii, 0.0))
-
-    first, _ = points(start)
-    b = first.mean(axis=0)
-    size = 0.0
-    for q in configs:
-        pts, radii = points(q)
-        size = max(size, float(np.max(np.linalg.norm(pts - b, axis=1) + radii)))
+    # every configuration in one mapped call of the robot's functions (a loop of 34 calls
+    # cost 7-8 ms a plan, a quarter of a warm youbot-3r plan)
+    Q = np.asarray(configs, dtype=float).T  # (n, K)
+    K, P = Q.shape[1], len(robot.collision)
+    ee = np.asarray(robot.functions["ee_position"].map(K)(Q), dtype=float).reshape(3, K)
+    pts = np.zeros((3, K, 0))
+    if P:
+        mapped = robot.functions["collision_points"].map(K)(Q)
+        pts = np.asarray(mapped, dtype=float).reshape(3, K, P)
+    allpts = np.concatenate([pts, ee[:, :, None]], axis=2)  # (3, K, P + 1)
+    radii = np.append(robot.collision_radii, 0.0)
+    b = allpts[:, 0, :].mean(axis=1)
+    size = float(np.max(np.linalg.norm(allpts - b[:, None, None], axis=0) + radii[None, :]))
     return b, size
 
 
