@@ -45,7 +45,8 @@ from mmplan.report.scene3d_static import (
     draw_obstacles,
     scene_bounds,
 )
-from mmplan.report.visuals import COLLISION_COLOR, Visual, VisualKind, pose_from, robot_looks
+from mmplan.report.visual import COLLISION_COLOR, Visual, VisualKind
+from mmplan.report.visuals import pose_from, robot_looks
 from mmplan.robot import Robot
 from mmplan.robot.bases import PLATFORM
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.report import meshes
-from mmplan.report.visuals import Visual, VisualKind
+from mmplan.report.visual import Visual, VisualKind
 
 if TYPE_CHECKING:
     from mmplan.robot.urdf.robot import UrdfRobot

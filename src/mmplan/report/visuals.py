@@ -31,66 +31,28 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass, field
-from enum import Enum
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeGuard
 
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.report.visual import (
+    JOINT_COLOR,
+    LINK_COLOR,
+    PLATFORM_COLOR,
+    SPOKE_COLOR,
+    TOOL_COLOR,
+    WHEEL_COLOR,
+    Visual,
+    VisualKind,
+)
 from mmplan.robot import KinematicCar, Robot, UnicycleDrive
 from mmplan.robot.bases import PLATFORM
 from mmplan.robot.tree import Inertial, Joint, JointKind
 
 if TYPE_CHECKING:
     from mmplan.robot.urdf.robot import UrdfRobot
-
-PLATFORM_COLOR = "#607d8b"
-WHEEL_COLOR = "#263238"
-SPOKE_COLOR = "#cfd8dc"
-LINK_COLOR = "#f28e2b"
-JOINT_COLOR = "#37474f"
-TOOL_COLOR = "#d62728"
-COLLISION_COLOR = "#5f6368"  # the collision model (drawn by the 3D view, not a visual)
-
-
-class VisualKind(Enum):
-    """Primitive kinds of :class:`Visual`."""
-
-    BOX = "box"
-    CYLINDER = "cylinder"
-    SPHERE = "sphere"
-    MESH = "mesh"
-
-
-@dataclass(frozen=True)
-class Visual:
-    """One visual piece of a body, posed in the body frame.
-
-    Attributes:
-        name: Unique within the body (a scene path element).
-        kind: Primitive kind.
-        size: BOX: edge lengths (x, y, z) [m]; CYLINDER: (radius, length) [m] along the
-            piece's z axis, centred; SPHERE: (radius,) [m]; MESH: scale factors (x, y, z).
-        pose: T_body_piece (4, 4).
-        color: ``#rrggbb``.
-        opacity: 1 opaque, < 1 translucent.
-        vertices, faces: MESH given as triangles: (V, 3) [m] and (F, 3) vertex indices.
-        mesh_data, mesh_format: MESH given as a file's contents (``stl`` as bytes, ``obj`` and
-            ``dae`` as text) and its format.
-    """
-
-    name: str
-    kind: VisualKind
-    size: tuple[float, ...]
-    pose: Array = field(default_factory=lambda: np.eye(4))
-    color: str = LINK_COLOR
-    opacity: float = 1.0
-    vertices: Array | None = None
-    faces: np.ndarray | None = None
-    mesh_data: bytes | str | None = None
-    mesh_format: str = ""
-
 
 def pose_from(position: Array | tuple[float, ...], z_axis: Array | None = None) -> Array:
     """T (4, 4) at ``position`` whose z axis points along ``z_axis`` (identity rotation if None)."""
