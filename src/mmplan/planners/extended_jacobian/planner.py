@@ -247,7 +247,7 @@ def final_status(
 
     The rollout stops at half the tolerance (``stop_error``), so a run cut by ``t_max`` or a
     stall verdict may end inside the tolerance: that run completed the task and is
-    ``reached`` (issue 16: a ``timeout`` whose final error was 0.68 mm of 1 mm). A run
+    ``reached`` (seen: a ``timeout`` whose final error was 0.68 mm of 1 mm). A run
     ``reached`` whose trajectory ends outside the tolerance is ``stalled``. Other statuses
     (a broken limit, a divergence) stand.
     """
