@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from mmplan.compile import codegen
+from mmplan.time_scaling import native
 from mmplan.time_scaling import passes as ej_topp_passes
 from mmplan.time_scaling.passes import passes
 from mmplan.time_scaling.topp import Scaling, reference_scaling, time_optimal_scaling
@@ -205,13 +206,16 @@ def test_casadi_vm_fallback_matches_the_reference(monkeypatch: pytest.MonkeyPatc
     """Without a C compiler the passes run in the CasADi VM, with the same results."""
     monkeypatch.setattr(codegen, "compiler", lambda: None)
     passes.cache_clear()
+    native.kernels.cache_clear()
     try:
         assert isinstance(passes(5)[0], ej_topp_passes._VMChunk)
+        assert native.kernels() is None
         rng = np.random.default_rng(5)
         outcomes = [_assert_same(_random_problem(rng, N, 5)).feasible for N in (40, 300)]
         assert outcomes == [False, True]  # an empty set, and both passes over two chunks
     finally:
         passes.cache_clear()
+        native.kernels.cache_clear()
 
 
 def test_many_rows_use_the_mapped_backward_step_and_match_the_reference() -> None:

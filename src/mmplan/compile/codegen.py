@@ -111,6 +111,19 @@ def _build(cc: str, source: str, library: Path, prefix: str, flags: Sequence[str
     return True
 
 
+def compile_source(source: str, prefix: str, flags: Sequence[str] = ("-O2",)) -> str | None:
+    """Compile the C ``source`` (written by hand, e.g. :mod:`mmplan.time_scaling.native`)
+    into a shared library cached like :func:`compile_library`'s; its path, or None without a
+    compiler or when the build fails."""
+    cc = compiler()
+    if cc is None:
+        return None
+    library = _library(source, prefix, flags)
+    if library.exists():
+        return str(library)
+    return str(library) if _build(cc, source, library, prefix, flags) else None
+
+
 def start_build(
     make: Callable[[], Sequence[ca.Function]],
     prefix: str,

@@ -26,19 +26,17 @@ Forward step: the largest v with every slab row of b > 1e-14 and x + v Delta in 
 
 The steps read raw samples (alpha, beta, g, sigma, x_upper); the state carries the neighbouring
 sample and the zone. The backward step costs O(n^2) (every pair of slabs), the forward O(n).
-They run by ``mapaccum`` over chunks of :data:`CHUNK` intervals, compiled to C once per n by
-:mod:`.codegen` (the CasADi VM when there is no compiler). Inputs are
-copied chunk by chunk into one preallocated buffer per process (so not thread-safe): fresh
-large NumPy temporaries cost page faults (about 6 us per 4 KiB page on the test VM), more
-than the passes themselves.
+With a C compiler both passes run as the plain C loops of :mod:`.native` (same operations,
+same results to the bit; about 1 ms for the full backward pass of a 607-sample path with 15
+rows). These CasADi functions are their specification and the fallback without a compiler:
+they run by ``mapaccum`` over chunks of :data:`CHUNK` intervals on CasADi's virtual machine,
+inputs copied chunk by chunk into one preallocated buffer per process (so not thread-safe).
 """
 
 from __future__ import annotations
 
-import hashlib
 import threading
 from functools import lru_cache
-from pathlib import Path
 from typing import Protocol
 
 import casadi as ca
@@ -46,24 +44,19 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.compile import codegen
+from mmplan.time_scaling import native
 
 BIG = 1e30  # stands for an infinite limit (never binds: 0 <= x <= x_upper, |v| <= 1e6)
 V_BOX = 1e6  # |v| bound of the reference LP
 TOL = 1e-9  # emptiness slack (the reference accepts vertices 1e-9 outside a row)
-#: Intervals per compiled call. A call runs all of them (rows past the end feed discarded steps),
-#: so a backward pass restarted at interval m (the re-timing rounds, :mod:`.retime`) costs
-#: ceil((m + 1) / CHUNK) calls: 64 instead of 256 cut the backward passes of a
-#: youbot3r-obstacles-torque plan from 19.3 to 13.6-14.7 ms (same results).
+#: Intervals per call of the fallback. A call runs all of them (rows past the end feed discarded
+#: steps), so a backward pass restarted at interval m (the re-timing rounds, :mod:`.retime`)
+#: costs ceil((m + 1) / CHUNK) calls.
 CHUNK = 64
 #: Above this many rows the backward step projects its slab pairs by one mapped function
-#: instead of straight-line code: gcc took 28 s for the straight-line step of 14 rows
-#: (2.4 s mapped, which runs about 1.35x slower; 1.8 s straight-line for 5 rows).
+#: instead of straight-line code (a smaller expression graph; when these functions were
+#: compiled, gcc took 28 s for the straight-line step of 14 rows, 2.4 s mapped).
 MAPPED_ABOVE = 8
-#: C compiler flags of the passes. -O1 builds in 1.03-1.08 s against 1.46-1.74 s for -O2 (15
-#: rows: youbot-3r with torque and rate limits; 3 alternating builds each, load ~2 on 2 cores)
-#: with the same plans to the bit, but its backward pass runs 12 % slower (15.1-15.4 ms against
-#: 13.4-13.9 ms a youbot3r-obstacles-torque plan): a build is once per row count, a plan often.
-FLAGS = ("-O2",)
 RAW = 3  # (n,) blocks of a raw sample: alpha, beta, g; then sigma and x_upper
 
 Slab = tuple[ca.SX, ca.SX, ca.SX, ca.SX]
@@ -230,19 +223,10 @@ def _make(n: int) -> list[ca.Function]:
     return [_flat(backward_step(n), names[0], n), _flat(forward_step(n), names[1], n)]
 
 
-def _key(n: int) -> str:
-    digest = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
-    return f"ej_topp {n} {CHUNK} {digest}"
-
-
 @lru_cache(maxsize=8)
 def passes(n: int) -> tuple[_Chunk, _Chunk]:
-    """(backward, forward) chunk passes for n constraint rows: compiled and cached on disk by
-    :func:`codegen.compile_library` (built once per n and chunk length), else the VM."""
-    names = _names(n)
-    library = codegen.compile_library(lambda: _make(n), "ej_topp", FLAGS, key=_key(n))
-    if library is not None:
-        return codegen.NativeFunction(library, names[0]), codegen.NativeFunction(library, names[1])
+    """(backward, forward) chunk passes for n constraint rows on CasADi's virtual machine: the
+    fallback when the C loops of :mod:`.native` cannot be built (no compiler)."""
     bw, fw = _make(n)
     return _VMChunk(bw), _VMChunk(fw)
 
@@ -251,24 +235,23 @@ _PENDING: dict[int, threading.Thread] = {}
 
 
 def prefetch(n: int) -> None:
-    """Start compiling the passes for n rows when their library is not on disk yet: the C
-    source is generated now, the compiler runs in a background thread while the caller
-    compiles something else (the first plan of a robot: the generator's library, measured
-    4.8 s, and this one, 1.7 s, on two cores); the passes wait for it (:func:`_ready`). A
-    no-op when the library is cached or being built, or without a compiler."""
-    if n in _PENDING:
-        return
-    thread = codegen.start_build(lambda: _make(n), "ej_topp", _key(n), FLAGS)
-    if thread is not None:
-        _PENDING[n] = thread
+    """Build the passes in a background thread while the caller compiles something else (the
+    first plan of a robot: the generator's library): the C loops of :mod:`.native` (about
+    0.2 s, once per machine; they serve every row count). A no-op when they are cached or
+    being built, or without a compiler."""
+    if 0 in _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
+        return  # being built, loaded, or no compiler
+    thread = threading.Thread(target=native.kernels, daemon=True)
+    thread.start()
+    _PENDING[0] = thread
 
 
-def _ready(n: int) -> tuple[_Chunk, _Chunk]:
-    """:func:`passes`, after a build :func:`prefetch` started has finished."""
-    pending = _PENDING.pop(n, None)
+def _native() -> native.Kernels | None:
+    """The C loops (after a build :func:`prefetch` started has finished), None without them."""
+    pending = _PENDING.pop(0, None)
     if pending is not None:
         pending.join()
-    return passes(n)
+    return native.kernels()
 
 
 def _fill(buf: Array, columns: list[Array], sel: slice) -> None:
@@ -298,7 +281,10 @@ def backward(
     infinite limits. The same steps give the same values whatever the first interval."""
     n = alpha.shape[1]
     N = len(alpha) if start is None else start + 2
-    chunk = _ready(n)[0]
+    kernels = _native()
+    if kernels is not None:
+        return kernels.backward(alpha, beta, g, sigma, x_upper, zone, last, N - 2)
+    chunk = passes(n)[0]
     n_s = 2 + 2 * n + RAW * n + 2
     k = N - 1
     state = np.concatenate([last, zone, alpha[k], beta[k], g[k], sigma[k : k + 1],
@@ -328,7 +314,10 @@ def forward(
 ) -> Array:
     """x_1 .. x_{N-1} of the greedy pass from x_0 = ``x_start`` (``zone`` as :func:`backward`)."""
     N, n = alpha.shape
-    chunk = _ready(n)[1]
+    kernels = _native()
+    if kernels is not None:
+        return kernels.forward(alpha, beta, g, sigma, x_upper, zone, K_lo, K_hi, x_start)
+    chunk = passes(n)[1]
     n_s = 1 + 2 * n + RAW * n + 2
     state = np.concatenate([[x_start], zone, alpha[0], beta[0], g[0], sigma[:1], x_upper[:1]])
     x = np.empty(N - 1)

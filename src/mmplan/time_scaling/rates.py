@@ -247,13 +247,21 @@ class RateModel:
         trajectory between its samples); 0 on a step of non-finite length."""
         if not self.quantities or len(t) < 2:
             return np.zeros((max(len(t) - 1, 0), len(self.quantities)))
-        steps, out = interpolant.Steps(t, q, dq), []
-        for qt in self.quantities:
-            peak = (steps.peak_velocity if qt.kind == "velocity"
-                    else steps.peak_acceleration)(qt.index)  # fmt: skip
-            with np.errstate(divide="ignore", invalid="ignore"):
-                out.append(peak / qt.limit)
-        return np.column_stack(out)
+        steps = interpolant.Steps(t, q, dq)
+        out = np.empty((len(t) - 1, len(self.quantities)))
+        for kind, peaks in (("velocity", steps.column_peak_velocities),
+                            ("acceleration", steps.column_peak_accelerations)):  # fmt: skip
+            single = [j for j, qt in enumerate(self.quantities)
+                      if qt.kind == kind and len(qt.index) == 1]  # fmt: skip
+            if single:  # every one-coordinate quantity of a kind in one call
+                out[:, single] = peaks([self.quantities[j].index[0] for j in single])
+        for j, qt in enumerate(self.quantities):
+            if len(qt.index) > 1:
+                out[:, j] = (steps.peak_velocity if qt.kind == "velocity"
+                             else steps.peak_acceleration)(qt.index)  # fmt: skip
+        limits = np.array([qt.limit for qt in self.quantities])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.asarray(out / limits, dtype=float)
 
     def first_violation(
         self, t: Array, dq: Array, ddq: Array, q: Array | None = None

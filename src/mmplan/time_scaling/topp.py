@@ -40,8 +40,9 @@ Between samples the limits hold only approximately: x is linear in sigma on an i
 q', q'' and the effort coefficients change; tests/time_scaling/test_rates.py measures the
 excess on a dense resampling.
 
-:func:`time_optimal_scaling` runs both passes compiled (:mod:`.passes`, about
-1 us a sample with 5 rows); :func:`reference_scaling` is the plain NumPy version it reproduces.
+:func:`time_optimal_scaling` runs both passes compiled (:mod:`.passes`, :mod:`.native`:
+about 1.7 us a sample with 15 rows); :func:`reference_scaling` is the plain NumPy version it
+reproduces.
 """
 
 from __future__ import annotations

@@ -202,3 +202,25 @@ def test_builtin_scenario_reaches_and_passes_the_check(name: str, tmp_path: Path
     assert planned.exit_code == 0, planned.output
     checked = runner.invoke(main, ["check", str(out)])
     assert checked.exit_code == 0, checked.output
+
+
+@pytest.mark.parametrize("scenario", ["youbot3r-obstacles-torque", "youbot4r-reach",
+                                      "tiago-table", "ur5-omni-table"])  # fmt: skip
+def test_rows_of_E_are_the_stacked_jacobian(scenario: str) -> None:
+    """The partition switch reads Jc = [J; A] off the generator's E = [de_I/dq; A] (first
+    three rows and last h rows, :mod:`...switching`): equal to the robot's own J and A at
+    random configurations near the start."""
+    from mmplan.planners.extended_jacobian.criterion import stacked_jacobian
+    from mmplan.scenario.loader import load_scenario
+
+    problem = load_scenario(scenario).build()
+    if scenario.startswith(("tiago", "ur5")):
+        robot_data_dir()
+    prep = ExtendedJacobian._prepare(problem)
+    robot, rng = problem.robot, np.random.default_rng(4)
+    for _ in range(5):
+        q = prep.q0 + rng.normal(0.0, 0.2, robot.n)
+        E = np.asarray(prep.fns.E(q, prep.params), dtype=float)
+        h = robot.h
+        from_E = np.vstack([E[:3], E[len(E) - h :]]) if h else E[:3]
+        np.testing.assert_allclose(from_E, stacked_jacobian(robot, q), rtol=1e-12, atol=1e-12)

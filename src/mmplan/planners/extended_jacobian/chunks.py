@@ -78,11 +78,11 @@ def run(
     opt: RolloutOptions,
     clock: StallClock,
     rows: SampleLog,
-    wants_switch: Callable[[Array, float], bool] | None,
+    wants_switch: Callable[[Array, float, Array], bool] | None,
 ) -> Chunk:
     """Run one chunk from sample k (virtual control u so far); append accepted samples to rows.
 
-    ``wants_switch(q, cond(E))``: a partition switch is wanted at the chunk's start (the loop
+    ``wants_switch(q, cond(E), E)``: a partition switch is wanted at the chunk's start (the loop
     then decides that sample; None: no switch possible).
     """
     n, a, dt = fns.n, fns.n_act, opt.dt
@@ -119,7 +119,7 @@ def run(
     if E0 is None:
         E0 = np.asarray(fns.E(q, p), dtype=float)
     cond = float(np.linalg.cond(E0))
-    switching = wants_switch is not None and wants_switch(q, cond)
+    switching = wants_switch is not None and wants_switch(q, cond, E0)
     if not np.isfinite(cond) or cond > opt.cond_limit or switching:
         return none  # the loop decides at sample k
     states = np.vstack([np.concatenate([q, dq]), X[: m - 1]])

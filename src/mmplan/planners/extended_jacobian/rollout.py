@@ -161,10 +161,11 @@ def rollout(
             _keep_start(rows, t, q, dq, out.Tg, u, err)
             break
         if k % opt.cond_every == 0:
-            cond = float(np.linalg.cond(np.asarray(fns.E(q, p), dtype=float)))
+            E = np.asarray(fns.E(q, p), dtype=float)
+            cond = float(np.linalg.cond(E))
             factor = None
             if switch is not None and switches < opt.max_switches:
-                factor = switch.wanted(q, cond)
+                factor = switch.wanted(q, cond, E)
             if factor is not None and switch is not None:
                 other = switch(q, factor)
                 if other is not None:
