@@ -6,9 +6,10 @@ robot: sigma, alpha, beta, tau_g, zone of 5 actuators) and youbot3r-obstacles-to
 youBot's rate limits: 14 rows = 5 efforts, 2 wheel accelerations, 6 sides of the platform
 acceleration polygon, the yaw acceleration, and per-sample velocity bounds x_upper). Each is
 resampled along sigma to N = 1,250 (10 ms samples of the 12.4 s generator path) and N = 12,000.
-Both implementations run in the same process on the same data; the compiled one is the best of
-several runs (the machine is shared), the reference one run. Also printed: the first build
-(CasADi -> C -> gcc, into an empty cache) and the CasADi-VM fallback.
+Both implementations run in the same process on the same data; the compiled one (the C loops
+of ``time_scaling/native.py``) is the best of several runs (the machine is shared), the
+reference one run. Also printed: the first build (gcc, into an empty cache) and the CasADi-VM
+fallback.
 
 Run: ``python bench/bench_topp.py``.
 """
@@ -26,28 +27,39 @@ import numpy as np
 from mmplan.compile import codegen
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
 from mmplan.scenario.loader import load_scenario
-from mmplan.time_scaling import retime
+from mmplan.time_scaling import native, retime
 from mmplan.time_scaling.passes import passes
-from mmplan.time_scaling.topp import Scaling, reference_scaling, time_optimal_scaling
+from mmplan.time_scaling.topp import (
+    Scaling,
+    reference_scaling,
+    scaling_with_sets,
+    time_optimal_scaling,
+)
 
 REPEAT = 20
 Call = tuple[tuple[Any, ...], dict[str, Any]]
 
 
 def capture(name: str) -> Call:
-    """Arguments of the first scaling call of the plan of scenario ``name``."""
+    """Arguments of the first scaling call of the plan of scenario ``name`` (the re-timing
+    calls ``time_optimal_scaling`` without rate limits, ``scaling_with_sets`` with them)."""
     seen: list[Call] = []
 
     def spy(*args: Any, **kwargs: Any) -> Scaling:
         seen.append((args, kwargs))
         return time_optimal_scaling(*args, **kwargs)
 
-    original = retime.time_optimal_scaling
+    def spy_sets(*args: Any, **kwargs: Any) -> tuple[Scaling, np.ndarray, np.ndarray]:
+        seen.append((args, {k: v for k, v in kwargs.items() if k != "reuse"}))
+        return scaling_with_sets(*args, **kwargs)
+
+    originals = retime.time_optimal_scaling, retime.scaling_with_sets
     retime.time_optimal_scaling = spy  # type: ignore[assignment]
+    retime.scaling_with_sets = spy_sets  # type: ignore[assignment]
     try:
         ExtendedJacobian().plan(load_scenario(name).build())
     finally:
-        retime.time_optimal_scaling = original
+        retime.time_optimal_scaling, retime.scaling_with_sets = originals
     return seen[0]
 
 
@@ -78,24 +90,24 @@ def best(fn: Callable[[], object], repeat: int) -> float:
 
 
 def first_build() -> float:
-    """Seconds to build the library of 5 actuators into an empty cache."""
+    """Seconds to build the C loops of the passes into an empty cache."""
     old = os.environ.get("MMPLAN_CACHE")
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["MMPLAN_CACHE"] = tmp
-        passes.cache_clear()
+        native.kernels.cache_clear()
         t0 = time.perf_counter()
-        passes(5)
+        native.kernels()
         elapsed = time.perf_counter() - t0
     if old is None:
         del os.environ["MMPLAN_CACHE"]
     else:
         os.environ["MMPLAN_CACHE"] = old
-    passes.cache_clear()
+    native.kernels.cache_clear()
     return elapsed
 
 
 def main() -> None:
-    print(f"first build (C compile, empty cache, 5 rows): {first_build():.2f} s")
+    print(f"first build (C compile, empty cache, any row count): {first_build():.2f} s")
     for name in ("youbot3r-obstacles-torque-unlimited", "youbot3r-obstacles-torque"):
         print(f"capturing the {name} scaling problem (one plan) ...")
         real = capture(name)
@@ -119,6 +131,7 @@ def main() -> None:
     compiler = codegen.compiler
     codegen.compiler = lambda: None
     passes.cache_clear()
+    native.kernels.cache_clear()
     try:
         args, kw = resample(capture("youbot3r-obstacles-torque-unlimited"), 1250)
         t_vm = best(lambda: time_optimal_scaling(*args, **kw), 3)
@@ -126,6 +139,7 @@ def main() -> None:
     finally:
         codegen.compiler = compiler
         passes.cache_clear()
+        native.kernels.cache_clear()
 
 
 if __name__ == "__main__":

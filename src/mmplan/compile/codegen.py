@@ -19,6 +19,7 @@ import sys
 import tempfile
 import threading
 from collections.abc import Callable, Sequence
+from functools import lru_cache
 from pathlib import Path
 
 import casadi as ca
@@ -34,8 +35,14 @@ def cache_dir() -> Path:
 
 
 def compiler() -> str | None:
-    """Path of the C compiler (``$CC``, gcc or cc), None when there is none."""
-    return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
+    """Path of the C compiler (``$CC``, gcc or cc), None when there is none (looked up once
+    per value of ``$CC`` and ``$PATH``: a lookup costs 1-5 ms and a plan asks several times)."""
+    return _which(os.environ.get("CC", "gcc"), os.environ.get("PATH", ""))
+
+
+@lru_cache(maxsize=8)
+def _which(cc: str, path: str) -> str | None:
+    return shutil.which(cc, path=path) or shutil.which("cc", path=path)
 
 
 def _source(functions: Sequence[ca.Function]) -> str:
@@ -122,6 +129,11 @@ def compile_source(source: str, prefix: str, flags: Sequence[str] = ("-O2",)) ->
     if library.exists():
         return str(library)
     return str(library) if _build(cc, source, library, prefix, flags) else None
+
+
+def source_is_cached(source: str, prefix: str, flags: Sequence[str] = ("-O2",)) -> bool:
+    """True when :func:`compile_source` would load ``source``'s library without a build."""
+    return _library(source, prefix, flags).exists()
 
 
 def start_build(

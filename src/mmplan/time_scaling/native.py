@@ -27,6 +27,7 @@ from mmplan.arrays import Array
 from mmplan.compile import codegen
 
 FLAGS = ("-O2",)
+PREFIX = "topp_native"
 
 SOURCE = r"""
 #include <math.h>
@@ -186,5 +187,5 @@ def _ptr(a: Array) -> ctypes._Pointer[ctypes.c_double]:
 def kernels() -> Kernels | None:
     """The compiled passes (built at first use, then loaded from the disk cache); None
     without a compiler or when the build fails (the callers keep the CasADi VM)."""
-    path = codegen.compile_source(SOURCE, "topp_native", FLAGS)
+    path = codegen.compile_source(SOURCE, PREFIX, FLAGS)
     return Kernels(path) if path is not None else None

@@ -241,6 +241,8 @@ def prefetch(n: int) -> None:
     being built, or without a compiler."""
     if 0 in _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
         return  # being built, loaded, or no compiler
+    if codegen.source_is_cached(native.SOURCE, native.PREFIX, native.FLAGS):
+        return  # on disk: loaded at first use (a thread costs more than the load)
     thread = threading.Thread(target=native.kernels, daemon=True)
     thread.start()
     _PENDING[0] = thread
