@@ -7,9 +7,6 @@ hold the robot at rest are all detectable before the first step.
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
 from collections.abc import Sequence
 from typing import Any
 
@@ -17,9 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mmplan.arrays import Array
-from mmplan.compile.codegen import cache_dir
-from mmplan.compile.fingerprint import robot_fingerprint
-from mmplan.compile.model_cache import ModelCache
+from mmplan.compile.disk_memo import remember
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions, ObstacleTerm
 from mmplan.robot.ground import ground_sphere_indices
@@ -66,14 +61,11 @@ def check_goal(robot: Robot, p_f: Array, samples: int = 4096) -> None:
         )
 
 
-_REACH: ModelCache[tuple[float, float]] = ModelCache(16)
-
-
 def _vertical_reach(robot: Robot, samples: int) -> tuple[float, float]:
-    """Sampled [min, max] end-effector height over the joint limits, +-0.02 m (cached per
-    robot object, and on disk by the robot model's fingerprint next to the compiled
-    libraries: sampling costs 20-40 ms a process, the same per-process cost the compiled
-    generator's disk cache removes)."""
+    """Sampled [min, max] end-effector height over the joint limits, +-0.02 m (kept per
+    robot object and on disk by the robot model's fingerprint, :mod:`mmplan.compile.disk_memo`:
+    sampling costs 20-40 ms a process, the same per-process cost the compiled generator's
+    disk cache removes)."""
 
     def sample() -> tuple[float, float]:
         rng = np.random.default_rng(0)
@@ -83,26 +75,11 @@ def _vertical_reach(robot: Robot, samples: int) -> tuple[float, float]:
         Z = np.asarray(robot.functions["ee_position"].map(samples)(Q.T), dtype=float)[2]
         return float(Z.min()) - 0.02, float(Z.max()) + 0.02
 
-    def stored() -> tuple[float, float]:
-        # the fingerprint covers the joint limits and the kinematics the sample depends on
-        path = cache_dir() / f"reach_{robot_fingerprint(robot)[:24]}_{samples}.json"
-        try:
-            z_lo, z_hi = json.loads(path.read_text())
-            return float(z_lo), float(z_hi)
-        except (OSError, ValueError, TypeError):
-            pass
-        reach = sample()
-        try:  # floats round-trip exactly through JSON; atomic write
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(fd, "w") as out:
-                json.dump(list(reach), out)
-            os.replace(tmp, path)
-        except OSError:
-            pass
-        return reach
+    # the fingerprint covers the joint limits and the kinematics the sample depends on
+    def decode(data: list[float]) -> tuple[float, float]:
+        return float(data[0]), float(data[1])
 
-    return _REACH.get_or_build(robot, samples, stored)
+    return remember(robot, __file__, "reach", samples, sample, list, decode)
 
 
 def check_start_clearance(

@@ -23,11 +23,13 @@ joint axis passes through a common point) keeps mu at the end effector, unchange
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.compile.disk_memo import remember
 from mmplan.robot.robot import Robot
 from mmplan.robot.tree import WORLD, JointKind
 
@@ -77,8 +79,27 @@ def find_wrist(robot: Robot) -> Wrist | None:
 
     Candidate points: the end-effector point and the intersection of the last two axes. The
     geometry is read at one generic configuration: whether later axes pass through a point
-    on an earlier axis does not depend on the joint values.
+    on an earlier axis does not depend on the joint values. Kept per robot object and on disk
+    by the model's fingerprint (:mod:`mmplan.compile.disk_memo`; finding it builds CasADi
+    functions of the symbolic model, 5-9 ms, twice a plan before).
     """
+    return remember(robot, __file__, "wrist", 0, lambda: _find_wrist(robot), _encode, _decode)
+
+
+def _encode(wrist: Wrist | None) -> Any:
+    return None if wrist is None else [wrist.body, list(wrist.offset), list(wrist.joints)]
+
+
+def _decode(data: Any) -> Wrist | None:
+    if data is None:
+        return None
+    body, offset, joints = data
+    x, y, z = (float(v) for v in offset)
+    return Wrist(str(body), (x, y, z), tuple(int(j) for j in joints))
+
+
+def _find_wrist(robot: Robot) -> Wrist | None:
+    """:func:`find_wrist`, computed."""
     s = robot.symbols
     joints = robot.tree.joints
     arm = set(robot.arm_coordinates)
