@@ -11,15 +11,21 @@ of ``time_scaling/native.py``) is the best of several runs (the machine is share
 reference one run. Also printed: the first build (gcc, into an empty cache) and the CasADi-VM
 fallback.
 
+Last: ours against toppra on the problem the tests compare them on (same duration to 1e-5 s),
+both from the same inverse-dynamics function to the scaling.
+
 Run: ``python bench/bench_topp.py``.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 import time
 from collections.abc import Callable
+from importlib.metadata import version
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -140,6 +146,64 @@ def main() -> None:
         codegen.compiler = compiler
         passes.cache_clear()
         native.kernels.cache_clear()
+    for n in (201, 1001):
+        against_toppra(n)
+
+
+def against_toppra(n: int) -> None:
+    """Ours and toppra (seidel solver, first-order interpolation) on the same 3-dof spline
+    with joint velocity, acceleration and torque limits (the problem of
+    tests/time_scaling/test_rates.py, where the durations agree to 1e-5 s). Two timings, best
+    of several: the solve alone (coefficients made: ours as arrays, toppra's solver wrapper
+    built) and from the inverse-dynamics function (a Python callback per grid point, which
+    both pay) to the scaling."""
+    try:
+        from toppra import algorithm, constraint
+    except ImportError:
+        print("toppra not installed: comparison skipped (pip install toppra)")
+        return
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests.time_scaling import test_rates as problem
+
+    path = problem._spline()
+    grid = np.linspace(0.0, 1.0, n)
+    interp = constraint.DiscretizationType.Interpolation
+
+    def setup() -> Any:
+        cons = [
+            constraint.JointVelocityConstraint(problem.VLIM),
+            constraint.JointAccelerationConstraint(problem.ALIM, discretization_scheme=interp),
+            constraint.JointTorqueConstraint(
+                problem._inv_dyn, np.column_stack([-problem.TLIM, problem.TLIM]), np.zeros(3),
+                discretization_scheme=interp,
+            ),
+        ]  # fmt: skip
+        return algorithm.TOPPRA(cons, path, gridpoints=grid, solver_wrapper="seidel")
+
+    alg = setup()
+    captured: list[Call] = []
+    scaled = problem.time_optimal_scaling
+
+    def spy(*a: Any, **k: Any) -> Scaling:
+        captured.append((a, k))
+        return scaled(*a, **k)
+
+    problem.time_optimal_scaling = spy
+    try:
+        ours = problem._ours(path, grid)
+    finally:
+        problem.time_optimal_scaling = scaled
+    args, kwargs = captured[0]
+    solve_ours = best(lambda: time_optimal_scaling(*args, **kwargs), REPEAT)
+    solve_theirs = best(lambda: alg.compute_parameterization(0.0, 0.0), 5)
+    full_ours = best(lambda: problem._ours(path, grid), 5)
+    full_theirs = best(lambda: setup().compute_parameterization(0.0, 0.0), 5)
+    _, sd, _ = alg.compute_parameterization(0.0, 0.0)
+    t_theirs = float(np.sum(2.0 * np.diff(grid) / (sd[1:] + sd[:-1])))
+    print(f"vs toppra {version('toppra')}, N = {n}: solve {solve_ours * 1e3:.3f} ms vs "
+          f"{solve_theirs * 1e3:.2f} ms ({solve_theirs / solve_ours:.0f}x); from the inverse "
+          f"dynamics {full_ours * 1e3:.2f} vs {full_theirs * 1e3:.2f} ms "
+          f"({full_theirs / full_ours:.1f}x); durations {ours.t[-1]:.6f} / {t_theirs:.6f} s")
 
 
 if __name__ == "__main__":
