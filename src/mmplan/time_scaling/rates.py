@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -44,6 +45,7 @@ from mmplan import interpolant
 from mmplan.arrays import Array
 from mmplan.robot.limits import RateLimits
 from mmplan.robot.tree import JointKind
+from mmplan.time_scaling import native_peaks
 
 if TYPE_CHECKING:
     from mmplan.robot.robot import Robot
@@ -247,6 +249,23 @@ class RateModel:
         trajectory between its samples); 0 on a step of non-finite length."""
         if not self.quantities or len(t) < 2:
             return np.zeros((max(len(t) - 1, 0), len(self.quantities)))
+        compiled = native_peaks.peaks()
+        if compiled is not None:  # the same arithmetic in one C loop (:mod:`.native_peaks`)
+            return compiled(t, q, dq, *self._columns)
+        return self.interval_ratios_numpy(t, q, dq)
+
+    @cached_property
+    def _columns(self) -> tuple[Array, Array, Array, Array]:
+        """(kind: 0 velocity / 1 acceleration, first and second coordinate (-1: none),
+        limit) of every quantity, for :mod:`.native_peaks`."""
+        qs = self.quantities
+        return (np.array([0 if qt.kind == "velocity" else 1 for qt in qs]),
+                np.array([qt.index[0] for qt in qs]),
+                np.array([qt.index[1] if len(qt.index) > 1 else -1 for qt in qs]),
+                np.array([qt.limit for qt in qs], dtype=float))  # fmt: skip
+
+    def interval_ratios_numpy(self, t: Array, q: Array, dq: Array) -> Array:
+        """:meth:`interval_ratios` in NumPy (the specification; without a compiler)."""
         steps = interpolant.Steps(t, q, dq)
         out = np.empty((len(t) - 1, len(self.quantities)))
         for kind, peaks in (("velocity", steps.column_peak_velocities),
