@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mmplan.compile import codegen
-from mmplan.time_scaling import native
+from mmplan.time_scaling import native, native_peaks
 from mmplan.time_scaling import passes as topp_passes
 
 from .test_topp import _assert_same, _random_problem
@@ -21,6 +21,7 @@ def test_prefetched_library_is_used_and_matches_the_reference(
 ) -> None:
     monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
     native.kernels.cache_clear()
+    native_peaks.peaks.cache_clear()
     try:
         topp_passes.prefetch(5)
         assert 0 in topp_passes._PENDING  # nothing loaded: a build was started
@@ -29,9 +30,11 @@ def test_prefetched_library_is_used_and_matches_the_reference(
         assert 0 not in topp_passes._PENDING
         assert isinstance(kernels, native.Kernels)
         assert len(list(tmp_path.glob("topp_native_*.so"))) == 1  # built once, then loaded
+        assert len(list(tmp_path.glob("interval_peaks_*.so"))) == 1  # in the same thread
         rng = np.random.default_rng(5)
         _assert_same(_random_problem(rng, 300, 5))
         topp_passes.prefetch(5)  # loaded now: no build
         assert 0 not in topp_passes._PENDING
     finally:
         native.kernels.cache_clear()
+        native_peaks.peaks.cache_clear()

@@ -44,7 +44,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.compile import codegen
-from mmplan.time_scaling import native
+from mmplan.time_scaling import native, native_peaks
 
 BIG = 1e30  # stands for an infinite limit (never binds: 0 <= x <= x_upper, |v| <= 1e6)
 V_BOX = 1e6  # |v| bound of the reference LP
@@ -235,15 +235,21 @@ _PENDING: dict[int, threading.Thread] = {}
 
 
 def prefetch(n: int) -> None:
-    """Build the passes in a background thread while the caller compiles something else (the
-    first plan of a robot: the generator's library): the C loops of :mod:`.native` (about
-    0.2 s, once per machine; they serve every row count). A no-op when they are cached or
-    being built, or without a compiler."""
+    """Build the C loops of the time scaling in a background thread while the caller compiles
+    something else (the first plan of a robot: the generator's library): the passes of
+    :mod:`.native` and the step peaks of :mod:`.native_peaks` (about 0.2 s each, once per
+    machine; they serve every row count; the first scaling waits for the thread, the peaks
+    are used after it). A no-op when they are cached or being built, or without a compiler."""
     if 0 in _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
         return  # being built, loaded, or no compiler
-    if codegen.source_is_cached(native.SOURCE, native.PREFIX, native.FLAGS):
+    if all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS) for m in (native, native_peaks)):
         return  # on disk: loaded at first use (a thread costs more than the load)
-    thread = threading.Thread(target=native.kernels, daemon=True)
+
+    def build() -> None:
+        native.kernels()
+        native_peaks.peaks()
+
+    thread = threading.Thread(target=build, daemon=True)
     thread.start()
     _PENDING[0] = thread
 
