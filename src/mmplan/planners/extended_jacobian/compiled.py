@@ -24,7 +24,7 @@ from typing import Any
 import casadi as ca
 
 from mmplan.compile import codegen as cg
-from mmplan.compile.fingerprint import robot_fingerprint, source_fingerprint
+from mmplan.compile.fingerprint import python_files, robot_fingerprint, source_fingerprint
 from mmplan.planners.extended_jacobian.functions import GeneratorFunctions, LazyFunction
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout, Shape
 
@@ -40,9 +40,9 @@ NAMES = ("terms_flat", "step_flat", "chunk", "record_step", "effort", "E")
 CFLAGS = ("-O2", "-march=native")
 
 
-def _code_files() -> list[Path]:
+def _code_files() -> list[str]:
     here = Path(__file__).parent
-    return [*here.rglob("*.py"), *Path(cg.__file__).parent.glob("*.py")]
+    return [*python_files(here, recursive=True), *python_files(Path(cg.__file__).parent)]
 
 
 def disk_key(
