@@ -4,6 +4,8 @@ virtual machine: the same K_lo, K_hi, empty flags and x to the bit."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -12,7 +14,7 @@ from mmplan.time_scaling import native
 from mmplan.time_scaling import passes as topp_passes
 from mmplan.time_scaling.passes import BIG
 
-from .test_topp import _random_problem
+from .test_topp import _assert_same, _random_problem
 
 
 def _vm(monkeypatch: pytest.MonkeyPatch, *args: object, forward: bool) -> object:
@@ -73,3 +75,21 @@ def test_signed_zeros_follow_casadi(monkeypatch: pytest.MonkeyPatch) -> None:
     for c, vm in zip(c_sets, vm_sets, strict=True):  # type: ignore[call-overload]
         np.testing.assert_array_equal(c, vm)
     assert not np.any(c_sets[2] > 0.5)
+
+
+def test_a_library_that_does_not_load_falls_back(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A cached file that is not a loadable library (another machine's, or damaged): the C
+    loops are off and the scaling runs on the VM, no exception."""
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    bad = codegen._library(native.SOURCE, native.PREFIX, native.FLAGS)
+    bad.parent.mkdir(parents=True, exist_ok=True)
+    bad.write_bytes(b"not a shared library")
+    native.kernels.cache_clear()
+    try:
+        assert native.kernels() is None
+        rng = np.random.default_rng(5)
+        _assert_same(_random_problem(rng, 60, 3))
+    finally:
+        native.kernels.cache_clear()

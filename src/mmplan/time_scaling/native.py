@@ -188,4 +188,9 @@ def kernels() -> Kernels | None:
     """The compiled passes (built at first use, then loaded from the disk cache); None
     without a compiler or when the build fails (the callers keep the CasADi VM)."""
     path = codegen.compile_source(SOURCE, PREFIX, FLAGS)
-    return Kernels(path) if path is not None else None
+    if path is None:
+        return None
+    try:
+        return Kernels(path)
+    except (OSError, AttributeError):  # a library that does not load here (another machine's)
+        return None
