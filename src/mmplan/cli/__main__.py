@@ -1,5 +1,5 @@
 """``python -m mmplan.cli``."""
 
-from mmplan.cli.main import main
+from mmplan.cli.program import run
 
-main()
+run()

@@ -10,13 +10,11 @@ from __future__ import annotations
 import sys
 import warnings
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any, NoReturn
 
 import click
-from rich.markup import escape
-from rich.table import Table
 
 import mmplan
 from mmplan.cli.output import (
@@ -131,8 +129,16 @@ def _is_dir(path: Path) -> bool:
         return False
 
 
+def _print_version(ctx: click.Context, _param: click.Parameter, value: bool) -> None:
+    """``--version``: looked up only when asked (importlib.metadata costs ~30 ms a start)."""
+    if value and not ctx.resilient_parsing:
+        click.echo(f"mmplan, version {mmplan.__version__}")
+        ctx.exit()
+
+
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(mmplan.__version__, prog_name="mmplan")
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True,
+              callback=_print_version, help="Show the version and exit.")
 def main() -> None:
     """Whole-body trajectory planning for mobile manipulators.
 
@@ -158,6 +164,9 @@ def robots() -> None:
     velocity and acceleration limits (sources: docs/conventions.md, Limits). Robots loaded from
     example-robot-data (tiago, ur5-omni) show "not installed" and the pip command without it."""
     with _user_errors():
+        from rich.markup import escape
+        from rich.table import Table
+
         table = Table("robot", "n", "h", "coordinates", "description")
         rates = Table("robot", "velocity limits (m/s, rad/s)", "acceleration limits (/s^2)",
                       caption="sources of the numbers: docs/conventions.md, Limits")
@@ -178,6 +187,8 @@ def robots() -> None:
 def scenarios() -> None:
     """List the built-in scenarios (robot, planning method, whether the method is installed)."""
     with _user_errors():
+        from rich.table import Table
+
         table = Table()
         table.add_column("scenario", no_wrap=True)  # names are what a user types: never cut
         table.add_column("robot", overflow="fold")
@@ -236,8 +247,9 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
     Exit code 0 when the task was reached and every check holds, 3 when planning ended
     without reaching it (summary.json says why) or a check failed, 2 for bad input.
     """
-    with _user_errors(), Progress(live_on(quiet)) as progress:
+    with _user_errors(), Progress(live_on(quiet)) as progress, ExitStack() as stack:
         from mmplan.io.plan_folder import check_out_dir
+        from mmplan.verify.native import compiled_checks
 
         if _is_dir(Path(scenario)):
             raise mmplan.InputError("SCENARIO", f"{scenario} is a directory; give a scenario "
@@ -245,6 +257,8 @@ def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool)
         progress("loading the scenario")
         sc = mmplan.load_scenario(scenario)
         check_out_dir(out_dir)  # before planning: refuse a folder we would not replace
+        # the checker's robot functions in C (built meanwhile the first time, for the next run)
+        stack.enter_context(compiled_checks(sc.robot, build=True))
         problem = sc.build()
         planner = mmplan.get_planner(sc.method)()
         progress("planning")
@@ -299,6 +313,7 @@ def check_cmd(directory: Path, quiet: bool) -> None:
     Exit code 0 when every check holds, 3 naming each failed check, 2 on unreadable input.
     """
     with _user_errors(), Progress(live_on(quiet)) as progress:
+        from mmplan.verify.native import compiled_checks
         from mmplan.verify.summary import summary_disagreements
 
         if directory.exists() and not directory.is_dir():
@@ -310,8 +325,9 @@ def check_cmd(directory: Path, quiet: bool) -> None:
         status = claimed.get("status")
         problem = sc.build()
         progress("checking the plan")
-        report = mmplan.check(trajectory, problem,
-                              status=None if status is None else str(status))
+        with compiled_checks(problem.robot):  # compiled when `mmplan plan` built them
+            report = mmplan.check(trajectory, problem,
+                                  status=None if status is None else str(status))
         failures = report.failures() + summary_disagreements(claimed, report, sc.method)
         progress.close()
         if not quiet:

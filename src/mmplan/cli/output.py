@@ -5,19 +5,47 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-from rich.console import Console
+from typing import TYPE_CHECKING, Any, cast
 
 import mmplan
 
 if TYPE_CHECKING:
+    from rich.console import Console
+
     from mmplan.io.export import Exported
     from mmplan.robot import RateLimits
     from mmplan.verify.rates import RateReport
 
-out = Console(highlight=False, soft_wrap=True)
-err = Console(stderr=True, highlight=False, soft_wrap=True)
+
+class _FirstUse:
+    """A rich ``Console`` made when first used: importing rich costs ~50 ms of a start, and
+    ``mmplan plan -q`` that succeeds prints nothing."""
+
+    def __init__(self, stderr: bool) -> None:
+        self._stderr = stderr
+        self._console: Console | None = None
+
+    def made(self) -> Console:
+        """The console itself (made now if need be)."""
+        if self._console is None:
+            from rich.console import Console
+
+            self._console = Console(stderr=self._stderr, highlight=False, soft_wrap=True)
+        return self._console
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.made(), name)
+
+
+out = cast("Console", _FirstUse(stderr=False))
+err = cast("Console", _FirstUse(stderr=True))
+
+
+def made(console: Console) -> Console:
+    """``console`` itself: the rich Console behind :data:`out` or :data:`err` (made now if need
+    be), for code that hands it to rich (a live display needs the Console, not a stand-in)."""
+    stand_in: object = console
+    return stand_in.made() if isinstance(stand_in, _FirstUse) else console
 
 
 def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:

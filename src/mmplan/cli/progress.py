@@ -23,13 +23,11 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from rich.progress import BarColumn, SpinnerColumn, TextColumn, TimeElapsedColumn
-from rich.progress import Progress as _Live
-
 from mmplan.cli import output
 
 if TYPE_CHECKING:
     from rich.console import Console
+    from rich.progress import Progress as _Live
     from rich.progress import TaskID
 
 #: Seconds a step runs before its line shows.
@@ -143,10 +141,13 @@ class Progress:
         with self._lock:
             if generation != self._generation or self._live is not None:
                 return
+            from rich.progress import BarColumn, SpinnerColumn, TextColumn, TimeElapsedColumn
+            from rich.progress import Progress as _Live
+
             self._live = _Live(SpinnerColumn(), TextColumn("{task.description}"),
                                BarColumn(bar_width=24), TextColumn("{task.fields[percent]}"),
-                               TimeElapsedColumn(), console=self.console, transient=True,
-                               redirect_stdout=False, redirect_stderr=True)
+                               TimeElapsedColumn(), console=output.made(self.console),
+                               transient=True, redirect_stdout=False, redirect_stderr=True)
             self._task = self._live.add_task(self._label, total=None, percent="")
             self._show_step()
             self._live.start()

@@ -18,7 +18,7 @@ Symbols (all expressions in the generalized coordinates q (n,), platform part fi
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -88,6 +88,46 @@ class Symbols:
     manipulability: ca.SX
     collision_points: ca.SX
     tau: ca.SX = field(default_factory=lambda: ca.SX())
+
+
+#: Robot.functions: name -> (the Symbols fields of its inputs, of its output).
+_FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
+    "ee_position": (("q",), "ee_position"),
+    "jacobian": (("q",), "jacobian"),
+    "pfaffian": (("q",), "pfaffian"),
+    "null_basis": (("q",), "null_basis"),
+    "actuation": (("q",), "actuation"),
+    "mass_matrix": (("q",), "mass_matrix"),
+    "bias": (("q", "dq"), "bias"),
+    "manipulability": (("q",), "manipulability"),
+    "collision_points": (("q",), "collision_points"),
+    "tau": (("q", "dq", "ddq"), "tau"),
+}
+
+
+class _Functions(Mapping[str, ca.Function]):
+    """:attr:`Robot.functions`: each CasADi function made when first asked for (making all ten
+    costs ~5 ms a robot, the bias forces and efforts most; a command needs a few) and kept in
+    ``made`` (the robot's shared store: copies share them)."""
+
+    def __init__(self, robot: Robot, made: dict[str, ca.Function]) -> None:
+        self._robot = robot
+        self._made = made
+
+    def __getitem__(self, name: str) -> ca.Function:
+        fn = self._made.get(name)
+        if fn is None:
+            inputs, output = _FUNCTIONS[name]  # KeyError for an unknown name, as a dict
+            s = self._robot.symbols
+            fn = ca.Function(name, [getattr(s, i) for i in inputs], [getattr(s, output)])
+            self._made[name] = fn
+        return fn
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(_FUNCTIONS)
+
+    def __len__(self) -> int:
+        return len(_FUNCTIONS)
 
 
 class Robot:
@@ -222,31 +262,15 @@ class Robot:
         return Symbols(q, dq, ddq, T, ee, T_ee[:3, :3], J, J_a, A, N, B, M, c, mu, P, tau)
 
     @property
-    def functions(self) -> dict[str, ca.Function]:
-        """Compiled CasADi functions, by name (built on first use, shared by copies).
+    def functions(self) -> Mapping[str, ca.Function]:
+        """Compiled CasADi functions, by name (each built on first use, shared by copies).
 
         ``ee_position(q)``, ``jacobian(q)``, ``pfaffian(q)``, ``null_basis(q)``,
         ``actuation(q)``, ``mass_matrix(q)``, ``bias(q, dq)``, ``manipulability(q)``,
         ``collision_points(q)``, ``tau(q, dq, ddq)``.
         """
-        if "functions" not in self._shared:
-            s = self.symbols
-            q, dq, ddq = s.q, s.dq, s.ddq
-            f = {
-                "ee_position": ca.Function("ee_position", [q], [s.ee_position]),
-                "jacobian": ca.Function("jacobian", [q], [s.jacobian]),
-                "pfaffian": ca.Function("pfaffian", [q], [s.pfaffian]),
-                "null_basis": ca.Function("null_basis", [q], [s.null_basis]),
-                "actuation": ca.Function("actuation", [q], [s.actuation]),
-                "mass_matrix": ca.Function("mass_matrix", [q], [s.mass_matrix]),
-                "bias": ca.Function("bias", [q, dq], [s.bias]),
-                "manipulability": ca.Function("manipulability", [q], [s.manipulability]),
-                "collision_points": ca.Function("collision_points", [q], [s.collision_points]),
-                "tau": ca.Function("tau", [q, dq, ddq], [s.tau]),
-            }
-            self._shared["functions"] = f
-        out: dict[str, ca.Function] = self._shared["functions"]
-        return out
+        made: dict[str, ca.Function] = self._shared.setdefault("functions", {})
+        return _Functions(self, made)  # a view: the store holds no reference to the robot
 
     # ------------------------------------------------------------------ numpy API
     def _q(self, q: ArrayLike, name: str = "q") -> Array:

