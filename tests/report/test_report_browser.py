@@ -174,11 +174,11 @@ VIEW_FIRST = "<style>#summary{display:none}</style></head>"
 
 
 def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: float,
-              play_ms: int = 4000, small: bool = False) -> dict[str, Any]:
-    """Open the report as it is (silent console, every figure decoded, the viewer ready),
-    then with the probe (what it saw, returned), then take the screenshots: still
-    (report.png) and ``play_ms`` into the page with Play pressed after 0.2 s (playing.png),
-    which must differ.
+              play_ms: int = 2000, small: bool = False) -> dict[str, Any]:
+    """Open the report as it is (silent console, every figure decoded, the viewer ready) and
+    take its still screenshot (report.png) in the same browser run, then open it with the
+    probe (what it saw, returned), then take the screenshot ``play_ms`` into the page with
+    Play pressed after 0.2 s (playing.png), which must differ from the still one.
 
     Every frame played is drawn and composited in software, the slower the larger the
     window: ``small`` plays in a 1000 x 1100 window (the playing screenshot with the summary
@@ -188,8 +188,11 @@ def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: fl
     figures = html.count("<figure ")
     assert figures >= 7
 
-    plain = _run(browser, report, tmp_path / "profile0", 4000, "--dump-dom")
+    shot = tmp_path / "report.png"
+    plain = _run(browser, report, tmp_path / "profile0", 4000, "--dump-dom",
+                 f"--screenshot={shot}")
     assert plain.returncode == 0, plain.stderr[-2000:]
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert _console(plain.stderr) == [], "console output:\n" + "\n".join(_console(plain.stderr))
     assert int(_attr(plain.stdout, "figures-loaded")) == figures  # every inline PNG decoded
     assert re.search(r'id="mmplan-viewer"[^>]*data-ready="yes"', plain.stdout)
@@ -210,9 +213,6 @@ def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: fl
     assert float(seen["slider"]) == pytest.approx(seek, abs=0.005)  # on the slider's steps
     assert seen["fetched"] == [] and seen["sockets"] == 0  # nothing loaded, no server
 
-    shot = tmp_path / "report.png"
-    still = _run(browser, report, tmp_path / "profile2", 3000, f"--screenshot={shot}")
-    assert still.returncode == 0 and shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     playing = report.parent / "playing.html"
     page = html.replace("</head>", VIEW_FIRST, 1) if small else html
     playing.write_text(page.replace("</body>", AUTOPLAY))

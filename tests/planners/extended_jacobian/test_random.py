@@ -6,11 +6,17 @@ and boxes, mostly near the straight line to the goal, never covering the start o
 every second scenario with the robot's torque limits. Every plan that reports ``reached``
 must pass the independent checker; every other plan must end with an honest status and a
 finite trajectory; input errors must be :class:`~mmplan.errors.InputError`.
+
+By default the per-scene checks and the reached fraction run on ``SELECTED`` (10 of the 30
+scenarios: those named below as having shown a defect); ``MMPLAN_SLOW_TESTS=1`` also runs
+them on the whole set (the ``[whole]`` cases, otherwise skipped with the reason shown). The
+set's description is always checked on all 30 scenarios.
 """
 
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +67,15 @@ REACHED_FLOOR = 0.9
 #: at both ends of each interval (time_scaling/topp.py; regression tests in
 #: tests/time_scaling/test_topp.py).
 KNOWN_CHECK_FAILURES: dict[str, str] = {}
+#: The scenarios planned by default: those whose defects are described above (random-0 and
+#: -7: stall window; -6: TOPP zone, torque limits; -11 and -18: arm push at joint limits;
+#: -21, -22, -24: near-goal push; -29: Pfaffian check at delta 0.1) and random-13, not
+#: reached (timeout; the not-reached case of the CLI test). Five with torque limits, five
+#: without; 9/10 reached when measured (2026-11-24).
+SELECTED = (0, 6, 7, 11, 13, 18, 21, 22, 24, 29)
+#: Floor on the reached fraction of ``SELECTED``: the whole set's margin (one scenario).
+SELECTED_FLOOR = 0.8
+SLOW = bool(os.environ.get("MMPLAN_SLOW_TESTS"))
 
 
 def _obstacle(rng: np.random.Generator, goal: np.ndarray) -> dict[str, Any]:
@@ -132,16 +147,46 @@ def _scenarios() -> list[dict[str, Any]]:
 
 
 @pytest.fixture(scope="module")
-def outcomes() -> list[tuple[dict[str, Any], Any]]:
-    """Each scenario with its (problem, result), or the InputError it raised."""
-    out: list[tuple[dict[str, Any], Any]] = []
-    for data in _scenarios():
+def planned() -> dict[int, tuple[dict[str, Any], Any]]:
+    """Scenario index -> its outcome, filled as scenarios are asked for (each planned once)."""
+    return {}
+
+
+@pytest.fixture(
+    scope="module",
+    params=[
+        "selected",
+        pytest.param("whole", marks=pytest.mark.skipif(
+            not SLOW, reason="the whole random youbot-3r set (30 plans, about 1 min): "
+                             "MMPLAN_SLOW_TESTS=1 runs it; the [selected] 10 run by default")),
+    ],
+)
+def outcomes(
+    request: pytest.FixtureRequest, planned: dict[int, tuple[dict[str, Any], Any]]
+) -> list[tuple[dict[str, Any], Any]]:
+    """Each selected scenario (or every one) with its (problem, result), or the InputError
+    it raised."""
+    indices = SELECTED if request.param == "selected" else range(COUNT)
+    sets = _scenarios()
+    for index in indices:
+        if index in planned:
+            continue
+        data = sets[index]
         try:
             problem = Scenario.from_dict(data, str(data["name"])).build()
-            out.append((data, (problem, ExtendedJacobian().plan(problem))))
+            planned[index] = (data, (problem, ExtendedJacobian().plan(problem)))
         except InputError as exc:
-            out.append((data, exc))
-    return out
+            planned[index] = (data, exc)
+    return [planned[index] for index in indices]
+
+
+def test_selection_spans_the_set() -> None:
+    """The default selection holds torque-limited and unlimited, low and high scenarios."""
+    chosen = [_scenarios()[i] for i in SELECTED]
+    assert len(set(SELECTED)) == len(SELECTED) >= 8 and max(SELECTED) < COUNT
+    assert sum("limits" not in s for s in chosen) == len(chosen) // 2
+    heights = np.array([s["goal"]["position"][2] for s in chosen])
+    assert (heights < 0.15).sum() >= 3 and (heights > 0.3).sum() >= 3
 
 
 def test_set_covers_directions_heights_shapes_and_limits() -> None:
@@ -223,7 +268,7 @@ def test_reached_fraction(outcomes: list[tuple[dict[str, Any], Any]]) -> None:
     reached = sum(v for k, v in tally.items() if k.startswith("reached"))
     fraction = reached / len(outcomes)
     print(f"\nrandom youbot-3r set: reached {reached}/{len(outcomes)} = {fraction:.0%}; {tally}")
-    assert fraction >= REACHED_FLOOR, tally
+    assert fraction >= (REACHED_FLOOR if len(outcomes) == COUNT else SELECTED_FLOOR), tally
 
 
 def _base(**changes: Any) -> dict[str, Any]:
@@ -284,7 +329,7 @@ def test_bad_input_is_input_error(changes: dict[str, Any], field: str) -> None:
 def test_cli_not_reached_exits_3(
     outcomes: list[tuple[dict[str, Any], Any]], tmp_path: Path
 ) -> None:
-    """The shortest random plan that does not reach its goal (random-18, diverged, when
+    """The shortest random plan that does not reach its goal (random-13, timeout, when
     measured) exits 3 from ``mmplan plan`` with the same honest status in summary.json, and
     ``mmplan check`` accepts the written plan."""
     failed = [
