@@ -220,7 +220,9 @@ def _exercise(browser: str, report: Path, tmp_path: Path, tracked: str, seek: fl
     later = _run(browser, playing, tmp_path / "profile3", play_ms, f"--screenshot={moving}",
                  window=window)
     assert later.returncode == 0 and moving.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert moving.read_bytes() != shot.read_bytes()
+    if not small:  # same window: the played frame differs from the still one (in a small
+        # window the shots differ in size anyway; there the probe's "changed" measures play)
+        assert moving.read_bytes() != shot.read_bytes()
     return seen
 
 
