@@ -114,6 +114,35 @@ def test_stack_layout_leaves_room_for_labels_and_legend() -> None:
     assert boxes[1].y1 <= boxes[0].y0 + 1  # the panels' decorations do not overlap
 
 
+def test_tick_label_measure_is_matplotlibs_tight_box_without_the_label() -> None:
+    """The layout's shortcut through matplotlib's steps measures what ``get_tightbbox``
+    measures with the axis label hidden: tick labels and offset texts (here ``1e4`` and
+    ``1e-5`` offsets), on both axes of panels with and without a legend and a log axis."""
+    from mmplan.report.figure_kit import legend_outside, log_y
+    from mmplan.report.figure_layout import _tick_labels_box
+
+    fig = Figure(figsize=(6, 5), dpi=110)
+    axes = fig.subplots(3, 1)
+    axes[0].plot([1e4, 1e4 + 1e-3], [1e-5, 1.00001e-5], label="offsets on both axes")
+    axes[1].plot([0.0, 3.0], [1e-6, 10.0])
+    log_y(axes[1])
+    axes[2].plot([-2.0, 2.0], [0.5, -0.5], label="plain")
+    for ax in axes:
+        ax.set_xlabel("a long x label [s]")
+        ax.set_ylabel("y [m]")
+        legend_outside(ax)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    for ax in axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            fast = _tick_labels_box(axis, renderer)
+            axis.label.set_visible(False)
+            reference = axis.get_tightbbox(renderer)
+            axis.label.set_visible(True)
+            assert fast is not None and reference is not None
+            assert np.allclose(fast.extents, reference.extents, atol=1e-9), axis.axis_name
+    assert axes[0].yaxis.offsetText.get_text() and axes[0].xaxis.offsetText.get_text()
+
+
 def test_background_job_returns_the_childs_result_or_runs_here() -> None:
     from mmplan.report.background import Background, can_fork
 

@@ -1,8 +1,9 @@
 """Run one job in a forked child process while the caller does other work (Linux only).
 
 A report draws a dozen matplotlib figures (about 0.1 s each, all in Python) and builds the 3D
-view; on a machine with two cores half the figures are drawn by a child process forked once
-the plan is read, so ``mmplan report`` stays under two seconds. The child inherits everything
+view; on a machine with two cores the figures are drawn by three processes (this one and two
+forked children, see :mod:`mmplan.report.build`) and ``mmplan report`` checks the plan in a
+fourth, so both cores work while the models load and while drawing. The child inherits everything
 in memory (no pickling of the job, only of its result, sent back through a pipe) and leaves
 with ``os._exit``. Where ``fork`` is unavailable or unsafe (Windows, macOS) or the child fails,
 the job simply runs in the calling process when its result is asked for, so the outcome

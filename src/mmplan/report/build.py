@@ -1,23 +1,27 @@
 """Writing a report: read the plan directory, derive, draw, assemble, write.
 
 ``write_report(DIR)`` writes ``DIR/report.html`` (one self-contained file) and
-``DIR/figures/<name>.png`` (the same figures as files). The work is split in two halves of
-about equal time: a forked child process (:mod:`.background`) builds the 3D view (importing
-meshcat) and draws the spatial and method figures while this process draws the time series.
+``DIR/figures/<name>.png`` (the same figures as files). The work is split three ways, each
+part in its own process (:mod:`.background`, forked): the figures of the plan's files alone
+(:mod:`.file_figures`: the method's artifacts and the planner's history; ``mmplan report``
+starts these once matplotlib is loaded, before it loads the robot models), the 3D view
+(importing meshcat) with the spatial figures and the clearance, and the other time series,
+drawn by this process.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from mmplan.errors import InputError
 from mmplan.report.background import Background
 from mmplan.report.context import ReportContext, build_context
 from mmplan.report.figure_kit import RenderedFigure
-from mmplan.report.figures import time_figures
-from mmplan.report.figures_method import artifact_figures, history_figure
+from mmplan.report.figures import TIME_FIGURES, TimeFigure, clearance_figure
 from mmplan.report.figures_space import platform_figure, top_view_figure
+from mmplan.report.file_figures import file_figures
 from mmplan.report.html import page, viewer_block
 from mmplan.report.overview import overview
 from mmplan.report.plan_data import read_plan_dir
@@ -30,14 +34,17 @@ def _none(label: str) -> None:
 
 
 def first_half(ctx: ReportContext) -> list[RenderedFigure]:
-    """The spatial figures and the method's artifacts (grids, spectra)."""
-    return [top_view_figure(ctx), platform_figure(ctx), *artifact_figures(ctx.plan.artifacts)]
+    """The spatial figures and the clearance over time (drawn with the 3D view)."""
+    return [top_view_figure(ctx), platform_figure(ctx), *_drawn(ctx, CHILD_SERIES)]
 
 
 def second_half(ctx: ReportContext) -> list[RenderedFigure]:
-    """The time series ([PajakPajak]'s and [Pajak]'s figures) and the planner's history."""
-    history = history_figure(ctx.plan.history, ctx.plan.t)
-    return time_figures(ctx) + ([history] if history is not None else [])
+    """The other time series ([PajakPajak]'s and [Pajak]'s figures)."""
+    return _drawn(ctx, tuple(f for f in TIME_FIGURES if f not in CHILD_SERIES))
+
+
+def _drawn(ctx: ReportContext, makers: tuple[TimeFigure, ...]) -> list[RenderedFigure]:
+    return [f for f in (make(ctx) for make in makers) if f is not None]
 
 
 def view_and_first_half(ctx: ReportContext, max_frames: int) -> tuple[str, list[RenderedFigure]]:
@@ -47,24 +54,29 @@ def view_and_first_half(ctx: ReportContext, max_frames: int) -> tuple[str, list[
     return viewer_block(scene_commands(ctx, max_frames)), first_half(ctx)
 
 
-def order(figures: list[RenderedFigure]) -> list[RenderedFigure]:
-    """Report order: the top view, the time series, the platform, the planner's history, the
-    method's figures (stable within each group)."""
-    rank = {"top_view": 0.0, "platform": 2.0, "history": 2.5}
-    return sorted(figures, key=lambda f: rank.get(f.name, 1.0 if f.name in TIME_SERIES else 3.0))
-
-
+#: Time series drawn with the 3D view and the spatial figures (about half the drawing time
+#: with them; the file figures are drawn apart).
+CHILD_SERIES: tuple[TimeFigure, ...] = (clearance_figure,)
 TIME_SERIES = ("clearance", "joints", "manipulability", "torques_wheels", "torques_arm",
                "virtual_control", "extra_columns", "task_error")
 
 
+def order(figures: list[RenderedFigure]) -> list[RenderedFigure]:
+    """Report order: the top view, the time series (in :data:`TIME_SERIES` order), the
+    platform, the planner's history, the method's figures (stable within each group)."""
+    rank = {"top_view": 0.0, "platform": 2.0, "history": 2.5}
+    rank.update({name: 1.0 + i / 100 for i, name in enumerate(TIME_SERIES)})
+    return sorted(figures, key=lambda f: rank.get(f.name, 3.0))
+
+
 def collect_figures(ctx: ReportContext) -> list[RenderedFigure]:
     """Every figure the plan has data for, in report order (drawn in this process)."""
-    return order(first_half(ctx) + second_half(ctx))
+    return order(first_half(ctx) + second_half(ctx) + file_figures(ctx.plan))
 
 
 def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None = None,
-                 parallel: bool = True) -> Path:
+                 parallel: bool = True,
+                 files_job: Background[list[RenderedFigure]] | None = None) -> Path:
     """Write ``plan_dir/report.html`` and ``plan_dir/figures/*.png``.
 
     Args:
@@ -72,7 +84,10 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None
             history.csv, artifacts.npz), as written by ``mmplan plan``.
         max_frames: Keyframes of the 3D animation (the trajectory is decimated), 2..2000.
         step: Called with the name of each step as it starts (progress display).
-        parallel: Draw half the figures in a forked child process (Linux).
+        parallel: Draw parts of the report in forked child processes (Linux).
+        files_job: :func:`~mmplan.report.file_figures.start_file_figures` of ``plan_dir``,
+            started earlier by the caller (its result is used, or it is cancelled); None:
+            started here.
 
     Returns:
         Path of the written report.html.
@@ -82,17 +97,23 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None
     """
     step = step or _none
     root = Path(plan_dir)
-    step("reading the plan")
-    plan = read_plan_dir(root)
-    ctx = build_context(plan, max_samples=max_frames)
-    step("drawing the figures and the 3D view")
-    child = Background(lambda: view_and_first_half(ctx, max_frames), enabled=parallel)
+    jobs: list[Background[Any]] = [] if files_job is None else [files_job]
     try:
+        step("reading the plan")
+        plan = read_plan_dir(root)
+        if files_job is None:
+            jobs.append(Background(lambda: file_figures(plan), enabled=parallel))
+        files = jobs[0]
+        ctx = build_context(plan, max_samples=max_frames)
+        step("drawing the figures and the 3D view")
+        child = Background(lambda: view_and_first_half(ctx, max_frames), enabled=parallel)
+        jobs.append(child)
         own = second_half(ctx)
         viewer, theirs = child.result()
+        figures = order(theirs + own + files.result())
     finally:
-        child.cancel()
-    figures = order(theirs + own)
+        for job in jobs:
+            job.cancel()
     step("writing the page")
     text = page(plan.summary, plan.scenario, overview(ctx), figures, viewer)
     folder = root / "figures"

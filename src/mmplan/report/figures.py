@@ -236,7 +236,10 @@ def task_error_figure(ctx: ReportContext) -> RenderedFigure | None:
     )
 
 
-TIME_FIGURES: tuple[Callable[[ReportContext], RenderedFigure | None], ...] = (
+#: A time-series figure: drawn from the context, or None without its data.
+TimeFigure = Callable[[ReportContext], RenderedFigure | None]
+
+TIME_FIGURES: tuple[TimeFigure, ...] = (
     clearance_figure,
     joints_figure,
     manipulability_figure,
