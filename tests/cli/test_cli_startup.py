@@ -86,3 +86,25 @@ def test_the_program_exits_as_usual_while_another_thread_runs(tmp_path: Path) ->
     done = _program(["--version"], prelude)
     assert done.returncode == 0 and done.stdout.startswith("mmplan, version ")
     assert marker.read_text() == "done"
+
+
+def test_exit_handlers_run_and_the_teardown_is_skipped() -> None:
+    """Exit handlers (matplotlib, PIL and logging register some when a report is drawn; here
+    also one of our own) run as at a normal exit; the interpreter's teardown (an object's
+    __del__ in a module global) is skipped. A normal exit of the same code runs both."""
+    code = ("import atexit, sys, matplotlib; matplotlib.use('Agg')\n"
+            "import matplotlib.pyplot, PIL.Image, logging\n"
+            "class Noisy:\n"
+            "    def __del__(self): print('teardown', flush=True)\n"
+            "keep = Noisy()\n"
+            "atexit.register(print, 'handler')\n"
+            "sys.argv = ['mmplan', '--version']\n"
+            "from mmplan.cli import program\n"
+            "program.run() if sys.argv[-1] == '--version' else None\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[1:] == ["handler", ""], done.stdout
+    normal = subprocess.run([sys.executable, "-c", code.replace("program.run()", "print()")],
+                            capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert normal.stdout.split() == ["handler", "teardown"], normal.stdout
