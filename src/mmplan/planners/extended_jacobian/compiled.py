@@ -34,10 +34,17 @@ NAMES = ("terms_flat", "step_flat", "chunk", "record_step", "effort", "E")
 #: -O3 -ffast-math no faster and 3x slower to compile). Re-measured on youbot-3r with two
 #: obstacle slots (677 kB of C, 3 alternating builds, load ~2 on 2 cores): gcc 4.64-4.74 s
 #: with -O2 -march=native, 3.28-3.55 s with -O1 -march=native, whose rollout chunks ran only
-#: 3 % slower (10.2-10.4 ms against 9.9 ms a youbot3r-obstacles-torque plan) but whose plans
-#: differ in the last digits (4.6e-9 at most in trajectory.csv): kept at -O2 so that plans
-#: stay the same to the bit.
+#: 3 % slower (10.2-10.4 ms against 9.9 ms a youbot3r-obstacles-torque plan). Since every build
+#: is without fused multiply-adds (:data:`mmplan.compile.codegen.FIXED_FLAGS`) -O1 and -O2
+#: give the same plans to the bit (youbot3r-obstacles-torque, its -unlimited variant and
+#: youbot4r-reach compared); the build is cut into units compiled in parallel
+#: (:mod:`mmplan.compile.split`).
 CFLAGS = ("-O2", "-march=native")
+#: Functions of the library called about once a plan (:meth:`GeneratorFunctions.evaluate`):
+#: the code only they reach is compiled without optimisation (:func:`mmplan.compile.codegen.
+#: compile_library`'s ``cold``; the same results, every build being without fused
+#: multiply-adds).
+COLD = ("mmplan_ej_terms_flat",)
 
 
 def _code_files() -> list[str]:

@@ -52,7 +52,7 @@ from mmplan.planners.extended_jacobian import obstacles as ej_obstacles
 from mmplan.planners.extended_jacobian import parameters as ej_parameters
 from mmplan.planners.extended_jacobian import slots as ej_slots
 from mmplan.planners.extended_jacobian import step as ej_step
-from mmplan.planners.extended_jacobian.compiled import CFLAGS
+from mmplan.planners.extended_jacobian.compiled import CFLAGS, COLD
 from mmplan.planners.extended_jacobian.criterion import Criterion
 from mmplan.planners.extended_jacobian.effort import effort_split
 from mmplan.planners.extended_jacobian.functions import GeneratorFunctions, LazyFunction
@@ -270,7 +270,7 @@ def build_functions(
             step_c = step_wrapper(record_c, n, layout.size)
             return [terms_c, step_c, chunk_c, record_c, effort_c, flat, E_fn]
 
-        built = cg.compile_library(make, "ej", CFLAGS, notify, key)
+        built = cg.compile_library(make, "ej", CFLAGS, notify, key, COLD)
         if built is not None:
             terms_flat, step_flat, chunk, record, effort, E_c = cg.load(
                 [f"mmplan_ej_{x}" for x in ej_compiled.NAMES], built
