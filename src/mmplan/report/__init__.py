@@ -64,14 +64,17 @@ def quiet_numerics() -> Iterator[None]:
 def check_failures(plan_dir: str | Path) -> list[str]:
     """What ``mmplan check DIR`` would report as failed (empty when it passes or cannot run)."""
     import mmplan
+    from mmplan.verify.native import compiled_checks
     from mmplan.verify.summary import summary_disagreements
 
     try:
         trajectory, sc = mmplan.read_plan(plan_dir)
         claimed = mmplan.read_summary(plan_dir)
         status = claimed.get("status")
-        report = mmplan.check(trajectory, sc.build(),
-                              status=None if status is None else str(status))
+        problem = sc.build()
+        with compiled_checks(problem.robot):  # the checker's C functions when on disk
+            report = mmplan.check(trajectory, problem,
+                                  status=None if status is None else str(status))
     except MmplanError:
         return []
     return report.failures() + summary_disagreements(claimed, report, sc.method)
