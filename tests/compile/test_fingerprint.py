@@ -36,3 +36,25 @@ def test_notice_is_one_line_once(capsys: pytest.CaptureFixture[str]) -> None:
     codegen.notice(message)
     err = capsys.readouterr().err
     assert err == f"mmplan: {message}\n"
+
+
+def test_robot_fingerprint_sees_every_bit_of_a_limit_and_code_without_a_file() -> None:
+    """Joint limits that differ in the last bit are another key (repr rounds them), and a
+    robot class defined without a source file (exec, a notebook) is keyed by its serialized
+    model instead of its code: a change of such a class's model is another key."""
+    a = get_robot("youbot-3r")
+    bumped = np.nextafter(a.limits.joint_max, np.inf)
+    other = a.with_limits(dataclasses.replace(a.limits, joint_max=bumped))
+    assert robot_fingerprint(other) != robot_fingerprint(a)
+    scope: dict[str, object] = {}
+    exec("from mmplan.robot.robot import Robot\nclass Mine(Robot):\n    pass\n", scope)
+    mine = youbot_3r.build()
+    mine.__class__ = scope["Mine"]  # type: ignore[assignment]
+    from mmplan.compile import fingerprint
+
+    assert fingerprint._model_code(mine) is None
+    assert robot_fingerprint(mine) != robot_fingerprint(a)  # the class name differs too
+    shifted = youbot_3r.build()
+    shifted.__class__ = scope["Mine"]  # type: ignore[assignment]
+    shifted.end_effector = dataclasses.replace(shifted.end_effector, offset=(0.35, 0.0, 0.0))
+    assert robot_fingerprint(shifted) != robot_fingerprint(mine)

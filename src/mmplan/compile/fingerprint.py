@@ -55,9 +55,13 @@ def robot_fingerprint(robot: Any) -> str:
             repr(robot.end_effector),
             repr(list(robot.collision)),
             repr(sorted(robot.friction.items())),
-            repr((robot.limits.joint_min, robot.limits.joint_max)),
-            source_fingerprint(_model_code(robot)),
+            _exact(robot.limits.joint_min) + _exact(robot.limits.joint_max),
         ]
+        code = _model_code(robot)
+        if code is None:  # a model class without a source file (REPL, notebook, exec)
+            parts.append(_serialized_model(robot))
+        else:
+            parts.append(source_fingerprint(code))
         return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
     with np.printoptions(precision=17, threshold=10**9):  # every digit of every limit
@@ -68,19 +72,40 @@ def _qualified(kind: type) -> str:
     return f"{kind.__module__}.{kind.__qualname__}"
 
 
-def _model_code(robot: Any) -> list[str]:
-    """The source files that build a robot's symbolic model: the modules of every class in
-    the robot's and its platform's class hierarchies (a user's own subclass too) and the
-    other modules of the package that defines the robot's base class (kinematics, dynamics)."""
+def _exact(values: Any) -> str:
+    """Every bit of an array of numbers (repr rounds to the print precision)."""
+    return np.ascontiguousarray(values, dtype=np.float64).tobytes().hex()
+
+
+def _model_code(robot: Any) -> list[str] | None:
+    """The source files that build a robot's symbolic model: mmplan's robot package
+    (kinematics, dynamics, platforms) and the modules of every class in the robot's and its
+    platform's class hierarchies (a user's own subclass too); None when one of those classes
+    has no source file (defined in a REPL, a notebook or by exec: its code cannot be hashed)."""
+    package = sys.modules.get("mmplan.robot.robot")
     files: set[str] = set()
+    if package is not None and getattr(package, "__file__", None):
+        files.update(python_files(os.path.dirname(os.path.abspath(str(package.__file__)))))
     for kind in (*type(robot).__mro__, *type(robot.platform).__mro__):
+        if kind is object or kind.__module__ == "abc":
+            continue
         source = getattr(sys.modules.get(kind.__module__), "__file__", None)
-        if source and kind.__module__ not in ("builtins", "abc"):
-            files.add(os.path.abspath(source))
-    base = getattr(sys.modules.get(type(robot).__mro__[-2].__module__), "__file__", None)
-    if base:
-        files.update(python_files(os.path.dirname(os.path.abspath(base))))
+        if not source:
+            return None
+        files.add(os.path.abspath(source))
     return sorted(files)
+
+
+def _serialized_model(robot: Any) -> str:
+    """sha256 of the robot's serialized symbolic model (builds it: 10-40 ms)."""
+    s = robot.symbols
+    model = ca.Function(
+        "model",
+        [s.q, s.dq, s.ddq],
+        [s.ee_position, s.ee_rotation, s.jacobian, s.pfaffian, s.null_basis, s.actuation,
+         s.mass_matrix, s.bias, s.manipulability, s.collision_points],
+    )  # fmt: skip
+    return hashlib.sha256(model.serialize().encode()).hexdigest()
 
 
 def source_fingerprint(files: Iterable[str | Path]) -> str:

@@ -124,10 +124,12 @@ def retime_path(
         before_tight, before_cap = tight.copy(), x_cap.copy()
         stalled = np.zeros_like(peaks, dtype=bool)
         if previous_peaks is not None:  # over again, by as much as before: no progress
-            stalled = (peaks > 1.0) & (peaks >= previous_peaks * (1.0 - STALL))
+            stalled = (peaks > 1.0) & (previous_peaks > 1.0)
+            stalled &= peaks >= previous_peaks * (1.0 - STALL)
         previous_peaks = peaks
         base = np.minimum(rr.x_upper, w_max**2)
-        _tighten(model, rr.quantity, peaks, tight, x_cap, stalled, sc.x / base)
+        share = np.divide(sc.x, base, out=np.zeros_like(sc.x), where=base > 0.0)
+        _tighten(model, rr.quantity, peaks, tight, x_cap, stalled, share)
         changed = np.flatnonzero(np.any(tight != before_tight, axis=1) | (x_cap != before_cap))
         last_changed = int(changed[-1]) if len(changed) else len(sigma) - 1
         reuse = (k_lo, k_hi, last_changed) if sc.first_empty is None else None
@@ -149,7 +151,8 @@ def _tighten(
     rounds (12) and was slowed down as a whole. On a ``stalled`` step (over again by as much
     as the round before, (N - 1, quantities)) x itself is capped at both ends at f^-1 times its
     value (``x_share``: x / its upper bound, (N,)): the accelerations of the slowed motion
-    scale like x. (Capping x on every step from the first round converges in fewer rounds but
+    scale like x (``x_share`` is x over the bound without the caps, so the new cap is
+    x_share / f). (Capping x on every step from the first round converges in fewer rounds but
     gives slower plans: 17.27 s instead of 16.18 s for youbot3r-obstacles-torque.)
     """
     previous_tight, previous_cap = tight.copy(), x_cap.copy()
@@ -167,4 +170,4 @@ def _tighten(
             for c in cols:
                 tight[ends, c] = np.maximum(tight[ends, c], previous_tight[ends, c] * f)
             e = ends[stuck]
-            x_cap[e] = np.minimum(x_cap[e], previous_cap[e] * x_share[e] / f[stuck])
+            x_cap[e] = np.minimum(x_cap[e], x_share[e] / f[stuck])  # x <= x_now / f
