@@ -71,6 +71,22 @@ def test_listing_methods_imports_no_planner() -> None:
     assert out.strip() == "[]"
 
 
+def test_method_table_matches_the_settings_modules_and_loads_one_package() -> None:
+    """The static method -> package table equals what the settings modules declare, and one
+    method's settings model loads no other method's settings module."""
+    from mmplan.planners import METHOD_PACKAGES, _builtin
+
+    assert {m: package for m, (package, _) in _builtin().items()} == METHOD_PACKAGES
+    code = (
+        "import sys; from mmplan.planners import settings_model; "
+        "settings_model('extended-jacobian'); "
+        "print(sorted(m for m in sys.modules if m.endswith('.settings')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "['mmplan.planners.extended_jacobian.settings']"
+
+
 def test_plans_for_a_robot_with_effort_limits_carry_the_model_efforts() -> None:
     """A tracker writes no efforts; on a robot with torque limits the template adds the
     model's efforts of the planned motion (the checker requires and judges them)."""
