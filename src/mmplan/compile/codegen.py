@@ -23,12 +23,15 @@ import threading
 from collections.abc import Callable, Sequence
 from functools import lru_cache
 from pathlib import Path
+from typing import TypeVar
 
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.compile.split import Unit, split
+
+T = TypeVar("T")
 
 #: C bytes per compiler process (:func:`_units`; gcc -O2 spends about 7 us a byte of generated
 #: code, on one core).
@@ -189,6 +192,21 @@ def compile_source(source: str, prefix: str, flags: Sequence[str] = ("-O2",)) ->
     if library.exists():
         return str(library)
     return str(library) if _build(cc, source, library, prefix, flags) else None
+
+
+def load_source(
+    source: str, prefix: str, flags: Sequence[str], make: Callable[[ctypes.CDLL], T]
+) -> T | None:
+    """``make(library)`` of :func:`compile_source`'s library of ``source``, loaded with
+    ctypes; None without a compiler, when the build fails or when the cached file does not
+    load here (another machine's, damaged, a missing symbol): the caller keeps its fallback."""
+    path = compile_source(source, prefix, flags)
+    if path is None:
+        return None
+    try:
+        return make(ctypes.CDLL(path))
+    except (OSError, AttributeError):
+        return None
 
 
 def source_is_cached(source: str, prefix: str, flags: Sequence[str] = ("-O2",)) -> bool:

@@ -137,10 +137,9 @@ _DBL = ctypes.POINTER(ctypes.c_double)
 
 
 class Kernels:
-    """The compiled passes of one library (:func:`kernels`)."""
+    """The compiled passes of one loaded library (:func:`kernels`)."""
 
-    def __init__(self, path: str) -> None:
-        lib = ctypes.CDLL(path)
+    def __init__(self, lib: ctypes.CDLL) -> None:
         self._bw, self._fw = lib.mmplan_topp_backward, lib.mmplan_topp_forward
         self._bw.restype = self._fw.restype = ctypes.c_int
 
@@ -187,10 +186,4 @@ def _ptr(a: Array) -> ctypes._Pointer[ctypes.c_double]:
 def kernels() -> Kernels | None:
     """The compiled passes (built at first use, then loaded from the disk cache); None
     without a compiler or when the build fails (the callers keep the CasADi VM)."""
-    path = codegen.compile_source(SOURCE, PREFIX, FLAGS)
-    if path is None:
-        return None
-    try:
-        return Kernels(path)
-    except (OSError, AttributeError):  # a library that does not load here (another machine's)
-        return None
+    return codegen.load_source(SOURCE, PREFIX, FLAGS, Kernels)

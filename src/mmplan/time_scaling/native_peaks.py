@@ -135,8 +135,8 @@ _INT = ctypes.POINTER(ctypes.c_int)
 class Peaks:
     """:func:`interval_ratios` of one compiled library (:func:`peaks`)."""
 
-    def __init__(self, path: str) -> None:
-        self._fn = ctypes.CDLL(path).mmplan_interval_peaks
+    def __init__(self, lib: ctypes.CDLL) -> None:
+        self._fn = lib.mmplan_interval_peaks
         self._fn.restype = None
 
     def __call__(
@@ -160,10 +160,4 @@ class Peaks:
 def peaks() -> Peaks | None:
     """The compiled loop (built at first use, then loaded from the disk cache); None without a
     compiler or when the build fails (the caller keeps NumPy)."""
-    path = codegen.compile_source(SOURCE, PREFIX, FLAGS)
-    if path is None:
-        return None
-    try:
-        return Peaks(path)
-    except (OSError, AttributeError):  # a library that does not load here (another machine's)
-        return None
+    return codegen.load_source(SOURCE, PREFIX, FLAGS, Peaks)

@@ -231,16 +231,17 @@ def passes(n: int) -> tuple[_Chunk, _Chunk]:
     return _VMChunk(bw), _VMChunk(fw)
 
 
-_PENDING: dict[int, threading.Thread] = {}
+#: The build :func:`prefetch` started and nobody has waited for yet.
+_PENDING: list[threading.Thread] = []
 
 
-def prefetch(n: int) -> None:
+def prefetch() -> None:
     """Build the C loops of the time scaling in a background thread while the caller compiles
     something else (the first plan of a robot: the generator's library): the passes of
     :mod:`.native` and the step peaks of :mod:`.native_peaks` (about 0.2 s each, once per
     machine; they serve every row count; the first scaling waits for the thread, the peaks
     are used after it). A no-op when they are cached or being built, or without a compiler."""
-    if 0 in _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
+    if _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
         return  # being built, loaded, or no compiler
     if all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS) for m in (native, native_peaks)):
         return  # on disk: loaded at first use (a thread costs more than the load)
@@ -251,14 +252,13 @@ def prefetch(n: int) -> None:
 
     thread = threading.Thread(target=build, daemon=True)
     thread.start()
-    _PENDING[0] = thread
+    _PENDING.append(thread)
 
 
 def _native() -> native.Kernels | None:
     """The C loops (after a build :func:`prefetch` started has finished), None without them."""
-    pending = _PENDING.pop(0, None)
-    if pending is not None:
-        pending.join()
+    while _PENDING:
+        _PENDING.pop().join()
     return native.kernels()
 
 

@@ -144,3 +144,19 @@ def test_acceleration_limits_hold_at_every_sample() -> None:
     assert np.hypot(tr.ddq[:, 0], tr.ddq[:, 1]).max() <= 1.0 * (1 + 1e-9)
     assert np.abs(tr.ddq[:, 3:5]).max() <= 30.0 * (1 + 1e-9)
     assert RateModel.of(problem.robot).first_violation(tr.t, tr.dq, tr.ddq) is None
+
+
+def test_stalled_steps_do_not_run_the_re_timing_out_of_rounds() -> None:
+    """youbot3r-obstacles: one step stayed over a wheel's acceleration limit by the same
+    amount round after round (its tightened rows did not bind), the re-timing ran out of its
+    rounds and slowed the whole motion (15.79 s). With x capped on a stalled step it converges
+    in a few rounds, within every limit, and no slower."""
+    from mmplan.time_scaling.retime import MAX_ROUNDS
+
+    problem = load_scenario("youbot3r-obstacles").build()
+    result = ExtendedJacobian().plan(problem)
+    assert result.status == Status.REACHED
+    assert result.info["time_scaling_rounds"] < MAX_ROUNDS
+    assert result.trajectory.t[-1] < 15.75
+    report = check(result.trajectory, problem, status=result.status)
+    assert report.ok, report.failures()

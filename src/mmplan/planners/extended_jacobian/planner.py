@@ -59,7 +59,6 @@ from mmplan.planners.extended_jacobian.switching import PartitionSwitch
 from mmplan.planners.extended_jacobian.time_scaling import (
     retime,
     rollout_time_scaled,
-    scaling_rows,
 )
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint, completion_time
@@ -191,7 +190,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             options.rates is not None and not options.torque_control
         )
         if time_scaling or options.rates is not None:  # the passes compile alongside the
-            topp_passes.prefetch(scaling_rows(len(robot.actuators), options))  # generator
+            topp_passes.prefetch()  # generator
         built = ej_cache.generator(
             robot,
             partition,

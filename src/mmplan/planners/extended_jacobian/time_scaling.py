@@ -74,13 +74,6 @@ def retime(path: RolloutResult, fns: GeneratorFunctions, opt: RolloutOptions) ->
     return scale_path(path, fns, opt, time_mode=False)
 
 
-def scaling_rows(n_act: int, opt: RolloutOptions) -> int:
-    """Constraint rows of :func:`scale_path`'s time scaling: the efforts, the consistency cap
-    (:func:`_retime_consistent`) and the rate rows (:meth:`RateModel.path_rows`); the compiled
-    passes are built per row count (:func:`mmplan.time_scaling.passes.prefetch`)."""
-    return n_act + 1 + (opt.rates.row_count if opt.rates is not None else 0)
-
-
 def _effort_split(path: RolloutResult, fns: GeneratorFunctions) -> tuple[Array, Array]:
     """beta = T_m q' and tau_g at every sample of ``path`` (N, n_act)."""
     if path.effort is not None:  # recorded by the compiled chunks
