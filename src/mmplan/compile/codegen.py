@@ -23,7 +23,7 @@ import threading
 from collections.abc import Callable, Sequence
 from functools import lru_cache
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import casadi as ca
 import numpy as np
@@ -294,6 +294,11 @@ class NativeFunction:
         self._mem = int(getattr(lib, f"{name}_checkout")())
         self._fn = getattr(lib, name)
         self._lib = lib
+
+    def signature(self) -> tuple[Any, Any, Any, Any, Any, int]:
+        """The ctypes function and its fixed arguments (arg, res, iw, w, mem): to call it from
+        C, e.g. on a thread of its own (:mod:`mmplan.compile.threads`)."""
+        return self._fn, self._arg, self._res, self._iw, self._w_ptr, self._mem
 
     def __call__(self) -> NDArray[np.float64]:
         """Evaluate at the current ``self.x``; returns ``self.y`` (overwritten by the next call)."""

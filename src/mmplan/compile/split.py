@@ -24,6 +24,9 @@ from dataclasses import dataclass
 _WORKER = re.compile(r"static int (casadi_f\d+)\(")
 _CALL = re.compile(r"\b(casadi_f\d+)\(")
 _HIDDEN = '__attribute__((visibility("hidden"))) int'
+#: What :func:`items` stops at inside an item, outside and inside braces.
+_TOP = re.compile(r"/\*|//|[\"'{};]")
+_NESTED = re.compile(r"/\*|//|[\"'{}]")
 
 
 def _skip_comment(src: str, i: int) -> int:
@@ -40,42 +43,54 @@ def _skip_string(src: str, i: int) -> int:
 def items(src: str) -> list[tuple[str, str]]:
     """Top-level items of C source in order, as ``(kind, text)``: ``"line"`` (a preprocessor
     line or a comment), ``"decl"`` (up to a ``;``: data, a prototype) or ``"func"`` (a
-    function definition)."""
+    function definition).
+
+    Between an item's start and its end only comments, strings, braces and (outside braces)
+    semicolons matter: the scan jumps from one to the next with a regular expression
+    (youBot-3r's 677 kB generator: 0.011 s, against 0.32-0.40 s character by character, the
+    same items; 0.9 s of a profiled first compile on a loaded machine)."""
     out: list[tuple[str, str]] = []
     i = start = depth = 0
-    while i < len(src):
-        c = src[i]
-        if depth == 0 and i == start and c in " \t\n":
-            i = start = i + 1
-        elif depth == 0 and i == start and c == "#":
-            end = src.index("\n", i) + 1
-            while src.endswith("\\\n", 0, end):  # a continued line
-                end = src.index("\n", end) + 1
-            out.append(("line", src[i:end]))
-            i = start = end
-        elif depth == 0 and i == start and src.startswith(("/*", "//"), i):
-            end = _skip_comment(src, i) if src[i + 1] == "*" else src.index("\n", i) + 1
-            out.append(("line", src[i:end]))
-            i = start = end
-        elif src.startswith("/*", i):
+    n = len(src)
+    while i < n:
+        if depth == 0 and i == start:
+            c = src[i]
+            if c in " \t\n":
+                i = start = i + 1
+                continue
+            if c == "#":
+                end = src.index("\n", i) + 1
+                while src.endswith("\\\n", 0, end):  # a continued line
+                    end = src.index("\n", end) + 1
+                out.append(("line", src[i:end]))
+                i = start = end
+                continue
+            if src.startswith(("/*", "//"), i):
+                end = _skip_comment(src, i) if src[i + 1] == "*" else src.index("\n", i) + 1
+                out.append(("line", src[i:end]))
+                i = start = end
+                continue
+        found = (_NESTED if depth else _TOP).search(src, i)
+        if found is None:
+            break
+        i, token = found.start(), found.group()
+        if token == "/*":
             i = _skip_comment(src, i)
-        elif src.startswith("//", i):
+        elif token == "//":
             i = src.index("\n", i)
-        elif c in "\"'":
+        elif token in "\"'":
             i = _skip_string(src, i)
-        elif c == "{":
+        elif token == "{":
             depth, i = depth + 1, i + 1
-        elif c == "}":
+        elif token == "}":
             depth, i = depth - 1, i + 1
             text = src[start:i]
             if depth == 0 and text[: text.index("{")].rstrip().endswith(")"):
                 out.append(("func", text))
                 start = i
-        elif c == ";" and depth == 0:
+        else:  # ";" outside braces
             out.append(("decl", src[start : i + 1]))
             i = start = i + 1
-        else:
-            i += 1
     if src[start:].strip():
         raise ValueError("unterminated C source")
     return out

@@ -17,6 +17,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout
+from mmplan.planners.extended_jacobian.prefetch import Speculation
 from mmplan.planners.extended_jacobian.step import CHUNK
 
 
@@ -85,6 +86,7 @@ class GeneratorFunctions:
     record: ca.Function | None = None  # the fused step (x, par) -> (x_next, rec) of step.py
     native_chunk: Any = None  # cg.NativeFunction of chunk_flat (step.build_chunk_flat)
     _last: Array | None = None
+    _speculation: Speculation | None = None  # the native chunk's calls (prefetch.py)
     cache: dict[str, Any] = field(default_factory=dict)  # functions built later (torque.feedback)
     #: Where goal, gains, floor, obstacle slots and partition lie in p (parameters.py).
     layout: ParameterLayout = field(default_factory=ParameterLayout)
@@ -119,16 +121,21 @@ class GeneratorFunctions:
         return v[: self.n], v[self.n :]
 
     def run_chunk(
-        self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float
+        self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float,
+        guess_next: bool = False,
     ) -> tuple[Array, Array]:
         """``chunk_steps`` steps from (q, dq): states after each step (K, 2n) and the records
         (K, n + n_act + 2) = [ddq, tau, err, f] at each step's start
-        (:mod:`~mmplan.planners.extended_jacobian.step`)."""
+        (:mod:`~mmplan.planners.extended_jacobian.step`).
+
+        ``guess_next``: start the next chunk (from the last state, the same u, s, ext, p, dt)
+        on a second core now (compiled only; :mod:`~mmplan.planners.extended_jacobian.
+        prefetch`): a later call with exactly that input takes its result."""
         if self.chunk is None:
             raise RuntimeError("no chunk function")
         par = np.concatenate([p, [u, s], ext, [dt]])
         if self.native_chunk is not None:  # ctypes call, no CasADi/DM conversion
-            y = self._native_call(np.concatenate([q, dq, par]))
+            y = self._native_call(np.concatenate([q, dq, par]), guess_next)
             n, K, a = self.n, self.chunk_steps, self.n_act
             X = y[: 2 * n * K].reshape(K, 2 * n)
             R = y[2 * n * K : len(y) - n * n - 2 * a * K].reshape(K, -1)
@@ -151,9 +158,13 @@ class GeneratorFunctions:
         a, K = self.n_act, self.chunk_steps
         return self._last[len(self._last) - 2 * a * K :].reshape(K, 2 * a)
 
-    def _native_call(self, x: Array) -> Array:
-        native = self.native_chunk
-        assert native is not None
-        native.x[:] = x
-        self._last = native().copy()
-        return self._last
+    def _native_call(self, x: Array, guess_next: bool = False) -> Array:
+        if self._speculation is None:
+            self._speculation = Speculation(self.native_chunk)
+        self._last = y = self._speculation.call(x)
+        if guess_next:
+            m = 2 * self.n
+            after = np.array(x)
+            after[:m] = y[m * (self.chunk_steps - 1) : m * self.chunk_steps]  # last state
+            self._speculation.guess(after)
+        return y

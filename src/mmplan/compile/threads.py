@@ -1,0 +1,125 @@
+"""A generated function evaluated on a C thread while Python goes on (no interpreter lock).
+
+A thread of Python's own would need the interpreter lock to start the call, and the thread
+holding it gives it up only every ``sys.getswitchinterval()`` (5 ms) while it computes:
+measured on youbot3r-obstacles-torque, a Python worker that ran the next compiled chunk
+during the rollout's checks made the plan 2 ms slower, not faster. Here the call runs on a
+POSIX thread started from C: :meth:`Job.start` returns at once, :meth:`Job.wait` joins it
+(ctypes releases the lock while waiting). The few lines of C are compiled once per machine
+(:func:`mmplan.compile.codegen.load_source`, about 0.1 s) and cached with the other libraries;
+without a compiler or threads a job runs inside :meth:`Job.start` (same result, no overlap).
+"""
+
+from __future__ import annotations
+
+import ctypes
+from functools import lru_cache
+from typing import Any
+
+from mmplan.compile import codegen
+
+FLAGS = ("-O2", "-pthread")
+PREFIX = "threads"
+
+SOURCE = r"""
+#include <pthread.h>
+#include <stdlib.h>
+
+/* the signature of a function of CasADi's generated code (casadi_int passed as void*) */
+typedef int (*mmplan_fn)(const double **arg, double **res, void *iw, double *w, int mem);
+
+typedef struct {
+    mmplan_fn f;
+    const double **arg;
+    double **res;
+    void *iw;
+    double *w;
+    int mem;
+    int ret;
+    int running;
+    pthread_t thread;
+} mmplan_job;
+
+static void *mmplan_job_run(void *p) {
+    mmplan_job *j = (mmplan_job *)p;
+    j->ret = j->f(j->arg, j->res, j->iw, j->w, j->mem);
+    return NULL;
+}
+
+size_t mmplan_job_size(void) { return sizeof(mmplan_job); }
+
+void mmplan_job_set(mmplan_job *j, void *f, void *arg, void *res, void *iw, void *w, int mem) {
+    j->f = (mmplan_fn)f;
+    j->arg = (const double **)arg;
+    j->res = (double **)res;
+    j->iw = iw;
+    j->w = w;
+    j->mem = mem;
+    j->ret = 0;
+    j->running = 0;
+}
+
+/* 1: running on its own thread; 0: no thread could start, evaluated here */
+int mmplan_job_start(mmplan_job *j) {
+    j->running = pthread_create(&j->thread, NULL, mmplan_job_run, j) == 0;
+    if (!j->running) mmplan_job_run(j);
+    return j->running;
+}
+
+int mmplan_job_wait(mmplan_job *j) {
+    if (j->running) pthread_join(j->thread, NULL);
+    j->running = 0;
+    return j->ret;
+}
+"""
+
+
+class _Library:
+    def __init__(self, lib: ctypes.CDLL) -> None:
+        lib.mmplan_job_size.restype = ctypes.c_size_t
+        self.size = int(lib.mmplan_job_size())
+        vp = ctypes.c_void_p
+        lib.mmplan_job_set.argtypes = [vp, vp, vp, vp, vp, vp, ctypes.c_int]
+        lib.mmplan_job_set.restype = None
+        lib.mmplan_job_start.argtypes = [vp]
+        lib.mmplan_job_wait.argtypes = [vp]
+        self.set, self.start = lib.mmplan_job_set, lib.mmplan_job_start
+        self.wait = lib.mmplan_job_wait
+
+
+@lru_cache(maxsize=1)
+def library() -> _Library | None:
+    """The compiled helper (built at first use, then from the disk cache); None without a
+    compiler or when it does not build."""
+    return codegen.load_source(SOURCE, PREFIX, FLAGS, _Library)
+
+
+class Job:
+    """One call of a generated function with fixed buffers, run on a C thread.
+
+    Args:
+        function: The ctypes function (``casadi`` generated signature).
+        arg, res, iw, w: Its argument and work arrays (kept alive by the caller).
+        mem: Its checked-out memory.
+    """
+
+    def __init__(self, function: Any, arg: Any, res: Any, iw: Any, w: Any, mem: int) -> None:
+        lib = library()
+        if lib is None:
+            raise OSError("no thread helper")
+        self._lib = lib
+        self._job = ctypes.create_string_buffer(lib.size)
+        address = ctypes.cast(function, ctypes.c_void_p)
+        lib.set(self._job, address, *(ctypes.cast(x, ctypes.c_void_p) for x in (arg, res, iw, w)),
+                mem)  # fmt: skip
+        self.running = False
+
+    def start(self) -> None:
+        """Evaluate on a new C thread (in this call when none can start)."""
+        self._lib.start(self._job)
+        self.running = True
+
+    def wait(self) -> int:
+        """Join the evaluation; the function's return code (0: success)."""
+        self.running = False
+        return int(self._lib.wait(self._job))

@@ -1,0 +1,104 @@
+"""The next compiled chunk, run on a second core while the rollout checks the one it has.
+
+A chunk (:mod:`~mmplan.planners.extended_jacobian.chunks`) is one call of compiled C
+(``chunk_steps`` generator steps), then the rollout's checks of its samples in NumPy (finite
+values, goal, stall verdict, cond(E) and cond(Jc_R), the sample log). Measured on
+youbot3r-obstacles-torque (warm, nothing else running): 13 chunks a plan, 9.6 ms in C and
+4.4 ms of checks. Most chunks are accepted whole, and then the next one starts exactly where
+the C call left it (the state after its last step, the same parameters). :class:`Speculation`
+starts that next call on a C thread (:mod:`mmplan.compile.threads`) as soon as a chunk's
+call returns; the rollout takes its result when it asks for a chunk with exactly that input
+(byte for byte), and otherwise waits for it and drops it. The samples are the same bits
+either way (the same C function on the same input); only where the time goes changes.
+
+Nothing is started on a machine with one usable core (the guess would only compete with the
+checks for it), nor without the compiled thread helper. One call is in flight at most, and
+the compiled function's buffers are used by one thread at a time: every call goes through
+:meth:`Speculation.call`, which first takes or drops the guess in flight. A
+:class:`~mmplan.planners.extended_jacobian.functions.GeneratorFunctions` is therefore not to
+be shared between threads that plan at the same time (nor was it before: the compiled
+function has one set of buffers).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from mmplan.arrays import Array
+from mmplan.compile import threads
+
+
+def cores() -> int:
+    """Cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+class Speculation:
+    """Calls of one compiled function (:class:`mmplan.compile.codegen.NativeFunction`), with at
+    most one guessed call running ahead on a C thread.
+
+    Args:
+        native: The compiled function (input ``native.x``, output ``native.y``).
+        enabled: Guess at all (default: when the process may use two cores or more and the
+            thread helper is compiled).
+    """
+
+    def __init__(self, native: Any, enabled: bool | None = None) -> None:
+        self._native = native
+        if enabled is None:
+            enabled = cores() >= 2
+        self._job: threads.Job | None = None
+        if enabled:
+            try:
+                self._job = threads.Job(*native.signature())
+            except OSError:  # no compiler: no helper
+                self._job = None
+        self.enabled = self._job is not None
+        self._guess: Array | None = None
+        #: Guesses taken and dropped so far (tests, benches).
+        self.hits = 0
+        self.misses = 0
+
+    def guess(self, x: Array) -> None:
+        """Start the call at x on a C thread (nothing when disabled or one is in flight)."""
+        if not self.enabled or self._job is None or self._guess is not None:
+            return
+        self._native.x[:] = x
+        self._guess = np.array(x, dtype=float)
+        self._job.start()
+
+    def call(self, x: Array) -> Array:
+        """The output at x (a copy): the guess's when it was made at exactly this x, else
+        computed now (after waiting for a guess in flight, whose result is then dropped)."""
+        if self._settle(x):
+            self.hits += 1
+            out: Array = self._native.y.copy()
+            return out
+        native = self._native
+        native.x[:] = x
+        out = native().copy()
+        return out
+
+    def settle(self) -> None:
+        """Wait for a guess in flight and drop it."""
+        self._settle(None)
+
+    def _settle(self, x: Array | None) -> bool:
+        """Join a guess in flight; True when it was made at x and succeeded."""
+        guess, self._guess = self._guess, None
+        if guess is None or self._job is None:
+            return False
+        ok = self._job.wait() == 0 and x is not None and _same(guess, x)
+        self.misses += 0 if ok else 1
+        return ok
+
+
+def _same(a: Array, b: Array) -> bool:
+    """The same input to the bit (NaN and signed zeros included)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return a.shape == b.shape and a.tobytes() == b.tobytes()

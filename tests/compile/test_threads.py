@@ -1,0 +1,68 @@
+"""Generated functions evaluated on a C thread (mmplan.compile.threads)."""
+
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from mmplan.compile import codegen as cg
+from mmplan.compile import threads
+
+
+@pytest.fixture()
+def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    threads.library.cache_clear()
+    yield tmp_path
+    threads.library.cache_clear()
+
+
+def _native() -> cg.NativeFunction:
+    x = ca.SX.sym("x", 4)
+    y = ca.vertcat(ca.sin(x[0]) * x[1], ca.exp(x[2]) - x[3] ** 2, x[0] * x[3])
+    library = cg.compile_library([ca.Function("mmplan_thr_fn", [x], [y])], "thr", ("-O0",))
+    assert library is not None
+    return cg.NativeFunction(library, "mmplan_thr_fn")
+
+
+def test_a_job_computes_what_the_direct_call_computes(cache: Path) -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native = _native()
+    job = threads.Job(*native.signature())
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        x = rng.normal(size=4)
+        native.x[:] = x
+        direct = native().copy()
+        native.y[:] = np.nan
+        job.start()
+        assert job.wait() == 0
+        np.testing.assert_array_equal(native.y, direct)
+
+
+def test_a_failing_function_returns_its_code(cache: Path) -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    source = (
+        "int mmplan_fails(const double **a, double **r, void *iw, double *w, int m)"
+        " { return 7; }\n"
+    )
+    path = cg.compile_source(source, "thr_fail")
+    assert path is not None
+    fn = ctypes.CDLL(path).mmplan_fails
+    job = threads.Job(fn, None, None, None, None, 0)
+    job.start()
+    assert job.wait() == 7
+
+
+def test_without_a_compiler_there_is_no_job(cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    monkeypatch.setenv("PATH", "/nonexistent")
+    assert threads.library() is None
+    with pytest.raises(OSError):
+        threads.Job(None, None, None, None, None, 0)

@@ -1,0 +1,62 @@
+"""The next chunk guessed on a C thread (planners/extended_jacobian/prefetch.py): same bits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mmplan
+from mmplan.compile import codegen as cg
+from mmplan.planners.extended_jacobian.functions import GeneratorFunctions
+from mmplan.planners.extended_jacobian.prefetch import Speculation
+
+
+def _plan_fns(name: str) -> tuple[object, GeneratorFunctions, mmplan.Problem]:
+    sc = mmplan.load_scenario(name)
+    problem = sc.build()
+    planner = mmplan.get_planner(sc.method)()
+    planner.plan(problem)
+    prep = planner._prepare(problem)
+    return planner, prep.fns, problem
+
+
+def test_guesses_give_the_same_plan_to_the_bit() -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    planner, fns, problem = _plan_fns("youbot3r-obstacles-torque")
+    assert fns.native_chunk is not None
+    runs = {}
+    for on in (True, False):
+        fns._speculation = Speculation(fns.native_chunk, enabled=on)
+        result = planner.plan(problem)
+        runs[on] = result.trajectory
+        spec = fns._speculation
+        assert spec.enabled is on
+        if on:  # every chunk but the first is a guess taken; the last guess is dropped
+            assert spec.hits >= 5 and spec.misses <= 2
+        else:
+            assert spec.hits == spec.misses == 0
+    for field in ("t", "q", "dq", "ddq", "tau"):
+        np.testing.assert_array_equal(getattr(runs[True], field), getattr(runs[False], field))
+
+
+def test_a_guess_at_another_input_is_dropped() -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    _, fns, _ = _plan_fns("youbot3r-obstacles-torque")
+    native = fns.native_chunk
+    spec = Speculation(native, enabled=True)
+    x = native.x.copy()
+    native.x[:] = x
+    expected = native().copy()
+    other = x.copy()
+    other[0] += 1e-3
+    spec.guess(other)
+    np.testing.assert_array_equal(spec.call(x), expected)  # computed again at x
+    assert (spec.hits, spec.misses) == (0, 1)
+    spec.guess(x)
+    np.testing.assert_array_equal(spec.call(x), expected)
+    assert (spec.hits, spec.misses) == (1, 1)
+    spec.guess(other)
+    spec.settle()
+    assert spec.misses == 2
