@@ -13,6 +13,7 @@ it). Scenes, goals and partitions are numbers in p
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -71,6 +72,11 @@ def disk_key(
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
 
+def _external(name: str, library: str) -> ca.Function:
+    (fn,) = cg.load([name], library)
+    return fn
+
+
 def _meta_path(key: str) -> Path:
     return cg.cache_dir() / f"ej_{key}.json"
 
@@ -122,8 +128,9 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
             int(lay["n_platform"]),
             tuple(int(i) for i in lay["choices"]),
         )
-        terms_flat, step_flat, chunk, record, effort, E = cg.load(
-            [f"mmplan_ej_{x}" for x in NAMES], library
+        # each loaded on its first call (0.1-0.2 ms apiece; a plan calls two or three)
+        terms_flat, step_flat, chunk, record, effort, E = (
+            LazyFunction(functools.partial(_external, f"mmplan_ej_{x}", library)) for x in NAMES
         )
         native = cg.NativeFunction(library, "mmplan_ej_chunk_flat")
     except (OSError, ValueError, KeyError, TypeError, RuntimeError):

@@ -74,16 +74,17 @@ class GeneratorFunctions:
 
     step: ca.Function | LazyFunction | None  # SX reference step (None when compiled)
     terms: ca.Function | LazyFunction  # lazy when loaded from the disk cache (compiled.py)
-    E: ca.Function
+    E: ca.Function | LazyFunction
     n: int
     n_act: int
     compiled: bool
-    terms_flat: ca.Function
+    terms_flat: ca.Function | LazyFunction
     step_flat: ca.Function | LazyFunction
-    effort: ca.Function  # [q; dq] -> [Tm dq; Tg] (time scaling)
-    chunk: ca.Function | None = None
+    effort: ca.Function | LazyFunction  # [q; dq] -> [Tm dq; Tg] (time scaling)
+    chunk: ca.Function | LazyFunction | None = None
     chunk_steps: int = CHUNK
-    record: ca.Function | None = None  # the fused step (x, par) -> (x_next, rec) of step.py
+    #: The fused step (x, par) -> (x_next, rec) of step.py.
+    record: ca.Function | LazyFunction | None = None
     native_chunk: Any = None  # cg.NativeFunction of chunk_flat (step.build_chunk_flat)
     _last: Array | None = None
     _speculation: Speculation | None = None  # the native chunk's calls (prefetch.py)
@@ -111,6 +112,12 @@ class GeneratorFunctions:
         V = np.asarray(self.effort.map(N)(X))
         a = self.n_act
         return np.ascontiguousarray(V[:a].T), np.ascontiguousarray(V[a:].T)
+
+    def gravity_efforts(self, q: Array) -> Array:
+        """Tg at q: the actuator efforts that hold the robot at rest (n_act,), by ``effort``."""
+        x = np.concatenate([np.asarray(q, dtype=float), np.zeros(self.n)])
+        out: Array = np.asarray(self.effort(x), dtype=float).ravel()[self.n_act :]
+        return out
 
     def advance(
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float

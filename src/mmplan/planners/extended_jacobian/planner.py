@@ -210,7 +210,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         )  # fmt: skip
         ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
         if options.torque_control:
-            ej_checks.check_gravity(robot, q0)
+            ej_checks.check_gravity(robot, q0, fns)
 
         def build(other: Partition) -> GeneratorFunctions:
             if fns.layout.supports(other):  # a value of p: the same (compiled) functions
