@@ -66,3 +66,14 @@ def test_without_a_compiler_there_is_no_job(cache: Path, monkeypatch: pytest.Mon
     assert threads.library() is None
     with pytest.raises(OSError):
         threads.Job(None, None, None, None, None, 0)
+
+
+def test_the_helper_is_built_in_the_background_when_missing(cache: Path) -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    threads._PENDING.clear()
+    assert not threads.ready()  # an empty cache
+    threads.prefetch()
+    assert len(threads._PENDING) == 1
+    threads._PENDING.pop().join()
+    assert threads.ready() and threads.library() is not None

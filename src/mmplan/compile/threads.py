@@ -6,13 +6,15 @@ measured on youbot3r-obstacles-torque, a Python worker that ran the next compile
 during the rollout's checks made the plan 2 ms slower, not faster. Here the call runs on a
 POSIX thread started from C: :meth:`Job.start` returns at once, :meth:`Job.wait` joins it
 (ctypes releases the lock while waiting). The few lines of C are compiled once per machine
-(:func:`mmplan.compile.codegen.load_source`, about 0.1 s) and cached with the other libraries;
-without a compiler or threads a job runs inside :meth:`Job.start` (same result, no overlap).
+(:func:`mmplan.compile.codegen.load_source`, about 0.1 s, in the background: :func:`prefetch`)
+and cached with the other libraries; without threads a job runs inside :meth:`Job.start` (same
+result, no overlap).
 """
 
 from __future__ import annotations
 
 import ctypes
+import threading
 from functools import lru_cache
 from typing import Any
 
@@ -92,6 +94,26 @@ def library() -> _Library | None:
     """The compiled helper (built at first use, then from the disk cache); None without a
     compiler or when it does not build."""
     return codegen.load_source(SOURCE, PREFIX, FLAGS, _Library)
+
+
+_PENDING: list[threading.Thread] = []
+
+
+def ready() -> bool:
+    """The helper can be loaded without a build (on disk, or loaded already)."""
+    if library.cache_info().currsize:
+        return library() is not None
+    return codegen.compiler() is not None and codegen.source_is_cached(SOURCE, PREFIX, FLAGS)
+
+
+def prefetch() -> None:
+    """Build the helper in a background thread when it is not on disk (once per machine,
+    about 0.1 s; a caller that meets it unbuilt goes without it, :func:`ready`)."""
+    if _PENDING or ready() or codegen.compiler() is None:
+        return
+    thread = threading.Thread(target=library, daemon=True)
+    thread.start()
+    _PENDING.append(thread)
 
 
 class Job:

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.compile import codegen as cg
+from mmplan.compile import threads
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.extended_jacobian import cache as ej_cache
@@ -191,6 +192,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         )
         if time_scaling or options.rates is not None:  # the passes compile alongside the
             topp_passes.prefetch()  # generator
+        threads.prefetch()  # the rollout's C thread helper too (prefetch.py)
         built = ej_cache.generator(
             robot,
             partition,

@@ -44,29 +44,42 @@ class Speculation:
 
     Args:
         native: The compiled function (input ``native.x``, output ``native.y``).
-        enabled: Guess at all (default: when the process may use two cores or more and the
-            thread helper is compiled).
+        enabled: Guess at all (default: when the process may use two cores or more). Without
+            the compiled thread helper on disk it is built in the background, and no guess
+            is made until it is there.
     """
 
     def __init__(self, native: Any, enabled: bool | None = None) -> None:
         self._native = native
-        if enabled is None:
-            enabled = cores() >= 2
+        self._wanted = cores() >= 2 if enabled is None else enabled
         self._job: threads.Job | None = None
-        if enabled:
-            try:
-                self._job = threads.Job(*native.signature())
-            except OSError:  # no compiler: no helper
-                self._job = None
-        self.enabled = self._job is not None
         self._guess: Array | None = None
         #: Guesses taken and dropped so far (tests, benches).
         self.hits = 0
         self.misses = 0
 
+    @property
+    def enabled(self) -> bool:
+        """Guesses are made (wanted, and the thread helper is loaded)."""
+        return self._ready()
+
+    def _ready(self) -> bool:
+        if self._job is not None:
+            return True
+        if not self._wanted:
+            return False
+        if not threads.ready():  # built in the background meanwhile, for later chunks
+            threads.prefetch()
+            return False
+        try:
+            self._job = threads.Job(*self._native.signature())
+        except OSError:  # does not load: no guesses
+            self._wanted = False
+        return self._job is not None
+
     def guess(self, x: Array) -> None:
         """Start the call at x on a C thread (nothing when disabled or one is in flight)."""
-        if not self.enabled or self._job is None or self._guess is not None:
+        if self._guess is not None or not self._ready() or self._job is None:
             return
         self._native.x[:] = x
         self._guess = np.array(x, dtype=float)
