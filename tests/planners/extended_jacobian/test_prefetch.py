@@ -60,3 +60,19 @@ def test_a_guess_at_another_input_is_dropped() -> None:
     spec.guess(other)
     spec.settle()
     assert spec.misses == 2
+
+
+def test_compiled_end_effector_positions_equal_the_robot_function() -> None:
+    """The trajectory's ee column (functions.ee_positions, compiled) against the robot's own
+    function on CasADi's virtual machine, at the samples of a plan and at random states."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    planner, fns, problem = _plan_fns("youbot3r-obstacles-torque")
+    robot = problem.robot
+    rng = np.random.default_rng(8)
+    Q = np.vstack([planner.plan(problem).trajectory.q, rng.normal(size=(37, robot.n))])
+    want = np.asarray(robot.functions["ee_position"].map(len(Q))(Q.T), dtype=float).T
+    got = fns.ee_positions(Q)
+    assert got is not None and got.shape == (len(Q), 3)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
+    assert fns.ee_positions(Q[:1]).shape == (1, 3)

@@ -133,6 +133,7 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
             LazyFunction(functools.partial(_external, f"mmplan_ej_{x}", library)) for x in NAMES
         )
         native = cg.NativeFunction(library, "mmplan_ej_chunk_flat")
+        native_ee = cg.NativeFunction(library, "mmplan_ej_ee_flat")
     except (OSError, ValueError, KeyError, TypeError, RuntimeError):
         return None
     reference: dict[str, GeneratorFunctions] = {}
@@ -149,5 +150,6 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
     return GeneratorFunctions(
         None, LazyFunction(terms), E, int(meta["n"]), int(meta["n_act"]), True, terms_flat,
         step_flat, effort, chunk, record=record, native_chunk=native, layout=layout, key=key,
+        native_ee=native_ee,
         cache={"symbolic": built},
     )  # fmt: skip

@@ -86,6 +86,7 @@ class GeneratorFunctions:
     #: The fused step (x, par) -> (x_next, rec) of step.py.
     record: ca.Function | LazyFunction | None = None
     native_chunk: Any = None  # cg.NativeFunction of chunk_flat (step.build_chunk_flat)
+    native_ee: Any = None  # cg.NativeFunction of ee_flat (step.build_ee_flat)
     _last: Array | None = None
     _speculation: Speculation | None = None  # the native chunk's calls (prefetch.py)
     cache: dict[str, Any] = field(default_factory=dict)  # functions built later (torque.feedback)
@@ -112,6 +113,25 @@ class GeneratorFunctions:
         V = np.asarray(self.effort.map(N)(X))
         a = self.n_act
         return np.ascontiguousarray(V[:a].T), np.ascontiguousarray(V[a:].T)
+
+    def ee_positions(self, Q: Array) -> Array | None:
+        """End-effector positions at the states Q (N, n) -> (N, 3) by the compiled ``ee_flat``
+        (``chunk_steps`` states a call, the last block padded with its last state); None when
+        not compiled (the caller maps the robot's ``ee_position``)."""
+        native = self.native_ee
+        if native is None:
+            return None
+        Q = np.asarray(Q, dtype=float)
+        N, K = len(Q), self.chunk_steps
+        out = np.empty((N, 3))
+        block = np.empty((K, self.n))
+        for start in range(0, N, K):
+            rows = Q[start : start + K]
+            block[: len(rows)] = rows
+            block[len(rows) :] = rows[-1]
+            native.x[:] = block.ravel()
+            out[start : start + len(rows)] = native().reshape(K, 3)[: len(rows)]
+        return out
 
     def gravity_efforts(self, q: Array) -> Array:
         """Tg at q: the actuator efforts that hold the robot at rest (n_act,), by ``effort``."""

@@ -63,6 +63,7 @@ from mmplan.planners.extended_jacobian.step import (
     StepParts,
     build_chunk,
     build_chunk_flat,
+    build_ee_flat,
     build_record_step,
     build_record_step_culled,
     reference_step,
@@ -268,7 +269,8 @@ def build_functions(
             chunk_c = build_chunk(record_c)
             flat = build_chunk_flat(chunk_c, E_fn, effort_c)
             step_c = step_wrapper(record_c, n, layout.size)
-            return [terms_c, step_c, chunk_c, record_c, effort_c, flat, E_fn]
+            ee_c = build_ee_flat(s.q, s.ee_position)
+            return [terms_c, step_c, chunk_c, record_c, effort_c, flat, E_fn, ee_c]
 
         built = cg.compile_library(make, "ej", CFLAGS, notify, key, COLD)
         if built is not None:
@@ -279,6 +281,7 @@ def build_functions(
                 None, terms, E_c, n, n_act, True, terms_flat, step_flat, effort, chunk,
                 record=record, native_chunk=cg.NativeFunction(built, "mmplan_ej_chunk_flat"),
                 layout=layout, key=disk_key or "", cache=later,
+                native_ee=cg.NativeFunction(built, "mmplan_ej_ee_flat"),
             )  # fmt: skip
             if disk_key is not None:
                 ej_compiled.save(disk_key, fns, built)

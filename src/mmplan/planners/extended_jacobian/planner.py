@@ -113,7 +113,9 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         )
         if not prep.time_scaling and prep.options.rates is not None:
             res = retime(res, prep.fns, prep.options)
-        ee = np.asarray(robot.functions["ee_position"].map(len(res.t))(res.q.T), dtype=float).T
+        ee = prep.fns.ee_positions(res.q)
+        if ee is None:  # the virtual machine
+            ee = np.asarray(robot.functions["ee_position"].map(len(res.t))(res.q.T), float).T
         trajectory = Trajectory(
             coordinates=robot.coordinates,
             t=res.t,

@@ -220,6 +220,15 @@ def build_chunk_flat(chunk: ca.Function, E: ca.Function, effort: ca.Function) ->
     return ca.Function("mmplan_ej_chunk_flat", [xp], [out])
 
 
+def build_ee_flat(q: ca.SX, ee: ca.SX, steps: int = CHUNK) -> ca.Function:
+    """``ee_flat([q_1; ...; q_K]) -> [k(q_1); ...; k(q_K)]``: the end-effector position at
+    ``steps`` states in one call (the trajectory's ``ee`` column, called through ctypes)."""
+    fn = ca.Function("mmplan_ej_ee", [q], [ee]).map(steps)
+    n = q.numel()
+    Q = ca.MX.sym("Q", n * steps)
+    return ca.Function("mmplan_ej_ee_flat", [Q], [ca.vec(fn(ca.reshape(Q, n, steps)))])
+
+
 def reference_step(
     accel: ca.Function, damp: ca.Function, n: int, p: ca.SX
 ) -> tuple[ca.Function, ca.Function]:
