@@ -76,3 +76,23 @@ def test_compiled_end_effector_positions_equal_the_robot_function() -> None:
     assert got is not None and got.shape == (len(Q), 3)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
     assert fns.ee_positions(Q[:1]).shape == (1, 3)
+
+
+def test_a_guess_in_flight_is_joined_before_its_buffers_go() -> None:
+    """Dropping a Speculation (or the interpreter exiting, prefetch._settle_all) while its
+    C thread runs waits for the thread: the guess is settled, nothing left in flight."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    _, fns, _ = _plan_fns("youbot3r-obstacles-torque")
+    native = fns.native_chunk
+    spec = Speculation(native, enabled=True)
+    x = native.x.copy()
+    spec.guess(x)
+    assert spec._guess is not None and spec._job is not None and spec._job.running
+    from mmplan.planners.extended_jacobian import prefetch
+
+    prefetch._settle_all()
+    assert spec._guess is None and spec._job is not None and not spec._job.running
+    spec.guess(x)
+    spec.__del__()
+    assert spec._guess is None and spec.misses == 2

@@ -22,7 +22,9 @@ function has one set of buffers).
 
 from __future__ import annotations
 
+import atexit
 import os
+import weakref
 from typing import Any
 
 import numpy as np
@@ -57,6 +59,12 @@ class Speculation:
         #: Guesses taken and dropped so far (tests, benches).
         self.hits = 0
         self.misses = 0
+        _LIVE.add(self)
+
+    def __del__(self) -> None:
+        # the C thread writes into buffers this object keeps alive: never free them under it
+        if getattr(self, "_guess", None) is not None:
+            self.settle()
 
     @property
     def enabled(self) -> bool:
@@ -109,6 +117,17 @@ class Speculation:
         ok = self._job.wait() == 0 and x is not None and _same(guess, x)
         self.misses += 0 if ok else 1
         return ok
+
+
+#: Every Speculation, so that none is left running when the interpreter exits (its buffers
+#: are freed then): joined by :func:`_settle_all` at exit (a guess runs for about 1 ms).
+_LIVE: weakref.WeakSet[Speculation] = weakref.WeakSet()
+
+
+@atexit.register
+def _settle_all() -> None:
+    for speculation in list(_LIVE):
+        speculation.settle()
 
 
 def _same(a: Array, b: Array) -> bool:
