@@ -185,13 +185,27 @@ class GeneratorFunctions:
         a, K = self.n_act, self.chunk_steps
         return self._last[len(self._last) - 2 * a * K :].reshape(K, 2 * a)
 
-    def _native_call(self, x: Array, guess_next: bool = False) -> Array:
+    def guess_chunk(self, q: Array, p: Array, dt: float) -> None:
+        """Start the compiled chunk a rollout from rest at q (u = s = 1, no push) begins with
+        on a second core now (:mod:`~mmplan.planners.extended_jacobian.prefetch`): the set-up
+        before the rollout's first chunk runs meanwhile, and the chunk takes the result."""
+        if self.native_chunk is None:
+            return
+        n = self.n
+        q, p = np.asarray(q, dtype=float), np.asarray(p, dtype=float)
+        par = np.concatenate([p, [1.0, 1.0], np.zeros(n), [dt]])  # as run_chunk builds it
+        self._speculate().guess(np.concatenate([q, np.zeros(n), par]))
+
+    def _speculate(self) -> Speculation:
         if self._speculation is None:
             self._speculation = Speculation(self.native_chunk)
-        self._last = y = self._speculation.call(x)
+        return self._speculation
+
+    def _native_call(self, x: Array, guess_next: bool = False) -> Array:
+        self._last = y = self._speculate().call(x)
         if guess_next:
             m = 2 * self.n
             after = np.array(x)
             after[:m] = y[m * (self.chunk_steps - 1) : m * self.chunk_steps]  # last state
-            self._speculation.guess(after)
+            self._speculate().guess(after)
         return y

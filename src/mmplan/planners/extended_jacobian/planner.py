@@ -99,7 +99,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         Raises:
             InputError: bad input detectable before planning (see :mod:`checks`).
         """
-        prep = self._prepare(problem)
+        prep = self._prepare(problem, guess=True)
         robot = problem.robot
         run = rollout_time_scaled if prep.time_scaling else rollout
         res = run(
@@ -160,8 +160,9 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         return Replanner(problem, spare)
 
     @classmethod
-    def _prepare(cls, problem: Problem) -> _Prepared:
-        """Checks, the compiled generator and the run options of ``problem``."""
+    def _prepare(cls, problem: Problem, guess: bool = False) -> _Prepared:
+        """Checks, the compiled generator and the run options of ``problem`` (``guess``: start
+        the rollout's first compiled chunk meanwhile, :meth:`GeneratorFunctions.guess_chunk`)."""
         settings = cls.settings(problem.settings)
         robot, task = problem.robot, problem.task
         if not isinstance(task, ReachPoint):
@@ -212,6 +213,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             p_f, options.gains, [(ob.model, ob.influence) for ob in obstacles], ground,
             partition if fns.layout.n_arm else None, heading,
         )  # fmt: skip
+        if guess and (not options.torque_control or time_scaling):  # from rest, no feedback:
+            fns.guess_chunk(q0, params, options.dt)  # its first chunk starts meanwhile
         ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
         if options.torque_control:
             ej_checks.check_gravity(robot, q0, fns)
