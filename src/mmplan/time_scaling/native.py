@@ -14,6 +14,14 @@ The operations and their order are those of :func:`.passes.backward_step` and
 :func:`.passes.forward_step`, so the results are the same to the bit
 (tests/time_scaling/test_native.py compares them with the CasADi functions on the VM).
 Builds in about 0.2 s instead of 1.75 s for the generated passes.
+
+The backward step's pairs fall in two groups: those among the interval's own slabs and the
+box on u (most of them: 528 of 561 for 15 rows), which do not depend on the recursion, and
+the 2 n + 1 pairs with the slab of K_{i+1}. The first group runs for all intervals before
+the recursion, split between two threads on paths of 64 intervals or more; max and min are
+exact and drop NaN in any order, so the bounds are those of the one loop to the bit (tests).
+Measured on 607 intervals x 16 rows with the other core busy (load 1.9): 1.57 ms against
+1.46 ms for the one loop, 1.43 ms for the two phases on one thread.
 """
 
 from __future__ import annotations
@@ -26,11 +34,12 @@ import numpy as np
 from mmplan.arrays import Array
 from mmplan.compile import codegen
 
-FLAGS = ("-O2",)
+FLAGS = ("-O2", "-pthread")
 PREFIX = "topp_native"
 
 SOURCE = r"""
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 
 #define BIG 1e30
@@ -72,19 +81,25 @@ static double interval(int n, int i, const double *alpha, const double *beta,
     return delta;
 }
 
-int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta,
-                         const double *g, const double *sigma, const double *x_upper,
-                         const double *zone, double k_lo, double k_hi,
-                         double *out_lo, double *out_hi, double *out_empty) {
-    int m = 2 * n + 2;
+/* Bounds on x_i from every pair of the slabs that do not depend on the recursion (the 2 n
+   slabs of interval i and the box on u), intervals [i0, i1), into pre_lo / pre_hi (with x_lo
+   from 0 and x_hi from x_upper[i]). */
+typedef struct {
+    int n, i0, i1;
+    const double *alpha, *beta, *g, *sigma, *x_upper, *zone;
+    double *pre_lo, *pre_hi;
+    int failed;
+} fixed_job;
+
+static void *fixed_pairs(void *arg) {
+    fixed_job *J = (fixed_job *)arg;
+    int n = J->n, m = 2 * n + 1;
     slab *s = malloc(sizeof(slab) * (size_t)m);
-    if (!s) return 1;
-    for (int i = top; i >= 0; i--) {
-        double delta = interval(n, i, alpha, beta, g, sigma, zone, s);
+    if (!s) { J->failed = 1; return NULL; }
+    for (int i = J->i0; i < J->i1; i++) {
+        interval(n, i, J->alpha, J->beta, J->g, J->sigma, J->zone, s);
         s[2 * n].a = 0.0; s[2 * n].b = 1.0; s[2 * n].lo = -V_BOX; s[2 * n].hi = V_BOX;
-        s[2 * n + 1].a = 1.0; s[2 * n + 1].b = delta; s[2 * n + 1].lo = k_lo;
-        s[2 * n + 1].hi = k_hi;
-        double x_lo = 0.0, x_hi = x_upper[i];
+        double x_lo = 0.0, x_hi = J->x_upper[i];
         for (int j = 0; j < m; j++) {
             double a1 = s[j].a, b1 = s[j].b, lo1 = s[j].lo, hi1 = s[j].hi;
             for (int k = j + 1; k < m; k++) {
@@ -97,6 +112,57 @@ int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta
                 x_hi = mn(x_hi, sel(pos, r2, r1));
             }
         }
+        J->pre_lo[i] = x_lo;
+        J->pre_hi[i] = x_hi;
+    }
+    free(s);
+    return NULL;
+}
+
+/* Intervals from which the fixed pairs are split between two threads. */
+#define SPLIT_FROM 64
+
+int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta,
+                         const double *g, const double *sigma, const double *x_upper,
+                         const double *zone, double k_lo, double k_hi,
+                         double *out_lo, double *out_hi, double *out_empty) {
+    int m = 2 * n + 2, count = top + 1;
+    slab *s = malloc(sizeof(slab) * (size_t)m);
+    double *pre = malloc(sizeof(double) * 2 * (size_t)(count > 0 ? count : 1));
+    if (!s || !pre) { free(s); free(pre); return 1; }
+    /* phase 1: the pairs without the recursion's slab, on two threads for long paths */
+    fixed_job jobs[2];
+    int parts = count >= SPLIT_FROM ? 2 : 1, half = count / parts;
+    for (int t = 0; t < parts; t++) {
+        fixed_job J = {n, t * half, t + 1 == parts ? count : (t + 1) * half,
+                       alpha, beta, g, sigma, x_upper, zone, pre, pre + count, 0};
+        jobs[t] = J;
+    }
+    pthread_t other;
+    int threaded = parts == 2 && pthread_create(&other, NULL, fixed_pairs, &jobs[1]) == 0;
+    fixed_pairs(&jobs[0]);
+    if (parts == 2) {
+        if (threaded) pthread_join(other, NULL);
+        else fixed_pairs(&jobs[1]);
+    }
+    if (jobs[0].failed || (parts == 2 && jobs[1].failed)) { free(s); free(pre); return 1; }
+    /* phase 2: the recursion, the pairs with slab 2n+1 = [1, delta] in [K_lo, K_hi] of i+1
+       (max and min are exact and drop NaN whatever the order: the same bits as all pairs in
+       one loop) */
+    for (int i = top; i >= 0; i--) {
+        double delta = interval(n, i, alpha, beta, g, sigma, zone, s);
+        s[2 * n].a = 0.0; s[2 * n].b = 1.0; s[2 * n].lo = -V_BOX; s[2 * n].hi = V_BOX;
+        double a2 = 1.0, b2 = delta, lo2 = k_lo, hi2 = k_hi;
+        double x_lo = pre[i], x_hi = pre[count + i];
+        for (int j = 0; j < m - 1; j++) {
+            double a1 = s[j].a, b1 = s[j].b, lo1 = s[j].lo, hi1 = s[j].hi;
+            double det = a1 * b2 - a2 * b1;
+            double r1 = (lo1 * b2 - hi2 * b1) / det;
+            double r2 = (hi1 * b2 - lo2 * b1) / det;
+            int pos = det >= 0;
+            x_lo = mx(x_lo, sel(pos, r1, r2));
+            x_hi = mn(x_hi, sel(pos, r2, r1));
+        }
         x_hi = mx(x_hi, -BIG);
         out_empty[i] = x_lo > x_hi + TOL * (1.0 + fabs(x_hi)) ? 1.0 : 0.0;
         k_lo = mx(mn(x_lo, x_hi), 0.0);
@@ -105,6 +171,7 @@ int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta
         out_hi[i] = k_hi;
     }
     free(s);
+    free(pre);
     return 0;
 }
 
