@@ -255,6 +255,17 @@ def prefetch() -> None:
     _PENDING.append(thread)
 
 
+def load() -> None:
+    """Load the C loops when they are on disk (a caller with idle time: the rollout waiting
+    for its compiled chunks, :mod:`mmplan.planners.extended_jacobian.prefetch`); else leave
+    them to :func:`prefetch` or the first scaling."""
+    if _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
+        return
+    if all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS) for m in (native, native_peaks)):
+        native.kernels()
+        native_peaks.peaks()
+
+
 def _native() -> native.Kernels | None:
     """The C loops (after a build :func:`prefetch` started has finished), None without them."""
     while _PENDING:

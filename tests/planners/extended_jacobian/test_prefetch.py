@@ -96,3 +96,29 @@ def test_a_guess_in_flight_is_joined_before_its_buffers_go() -> None:
     spec.guess(x)
     spec.__del__()
     assert spec._guess is None and spec.misses == 2
+
+
+def test_waiting_for_a_guess_runs_the_idle_tasks_once() -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    from mmplan.planners.extended_jacobian import prefetch
+
+    _, fns, _ = _plan_fns("youbot3r-obstacles-torque")
+    native = fns.native_chunk
+    spec = Speculation(native, enabled=True)
+    ran: list[int] = []
+
+    def task() -> None:
+        ran.append(1)
+
+    prefetch.while_waiting(task)
+    prefetch.while_waiting(task)  # once
+    x = native.x.copy()
+    spec.call(x)  # no guess in flight: nothing to wait for, the task waits
+    assert ran == []
+    spec.guess(x)
+    spec.call(x)
+    assert ran == [1] and spec.hits == 1
+    spec.guess(x)
+    spec.call(x)
+    assert ran == [1]

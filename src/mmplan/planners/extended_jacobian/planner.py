@@ -38,6 +38,7 @@ from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.extended_jacobian import cache as ej_cache
 from mmplan.planners.extended_jacobian import checks as ej_checks
+from mmplan.planners.extended_jacobian import prefetch as ej_prefetch
 from mmplan.planners.extended_jacobian.criterion import (
     Partition,
     build_criterion,
@@ -194,7 +195,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             options.rates is not None and not options.torque_control
         )
         if time_scaling or options.rates is not None:  # the passes compile alongside the
-            topp_passes.prefetch()  # generator
+            topp_passes.prefetch()  # generator, or load while the first chunk computes
+            ej_prefetch.while_waiting(topp_passes.load)
         threads.prefetch()  # the rollout's C thread helper too (prefetch.py)
         built = ej_cache.generator(
             robot,

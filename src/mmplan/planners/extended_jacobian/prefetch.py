@@ -25,6 +25,7 @@ from __future__ import annotations
 import atexit
 import os
 import weakref
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -110,13 +111,32 @@ class Speculation:
         self._settle(None)
 
     def _settle(self, x: Array | None) -> bool:
-        """Join a guess in flight; True when it was made at x and succeeded."""
+        """Join a guess in flight (running :func:`while_waiting`'s tasks first); True when it
+        was made at x and succeeded."""
         guess, self._guess = self._guess, None
         if guess is None or self._job is None:
             return False
-        ok = self._job.wait() == 0 and x is not None and _same(guess, x)
+        try:
+            while _IDLE:
+                _IDLE.pop(0)()
+        finally:  # joined whatever a task raised: the thread writes into our buffers
+            code = self._job.wait()
+        ok = code == 0 and x is not None and _same(guess, x)
         self.misses += 0 if ok else 1
         return ok
+
+
+#: Work for the interpreter while it waits for a guess (:func:`while_waiting`).
+_IDLE: list[Callable[[], object]] = []
+
+
+def while_waiting(task: Callable[[], object]) -> None:
+    """Run ``task`` (once) the next time a rollout waits for a guessed chunk, on the idle
+    interpreter: e.g. loading the time scaling's C loops from disk (0.5-1 ms of a process's
+    first plan) while the first chunk computes. Never run without guesses (one core): the
+    task's work is then left to whoever needs it first."""
+    if task not in _IDLE:
+        _IDLE.append(task)
 
 
 #: Every Speculation, so that none is left running when the interpreter exits (its buffers
