@@ -9,7 +9,14 @@ the C call left it (the state after its last step, the same parameters). :class:
 starts that next call on a C thread (:mod:`mmplan.compile.threads`) as soon as a chunk's
 call returns; the rollout takes its result when it asks for a chunk with exactly that input
 (byte for byte), and otherwise waits for it and drops it. The samples are the same bits
-either way (the same C function on the same input); only where the time goes changes.
+either way (the same C function on the same input); only where the time goes changes. A
+plan also starts its first chunk this way as soon as its parameters are packed
+(:meth:`~mmplan.planners.extended_jacobian.functions.GeneratorFunctions.guess_chunk`), and
+the interpreter, idle while it waits, runs small tasks meanwhile (:func:`while_waiting`).
+
+Measured (the same plan 30 times in one process, guesses on and off alternately, medians):
+23.4 against 25.3 ms on a quiet machine, 37.6-40.0 against 43.8-47.0 ms with the other core
+busy; after it the rollout's time is that of its C chunks (13 of 0.75 ms), the checks hidden.
 
 Nothing is started on a machine with one usable core (the guess would only compete with the
 checks for it), nor without the compiled thread helper. One call is in flight at most, and
