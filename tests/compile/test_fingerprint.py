@@ -58,3 +58,29 @@ def test_robot_fingerprint_sees_every_bit_of_a_limit_and_code_without_a_file() -
     shifted.__class__ = scope["Mine"]  # type: ignore[assignment]
     shifted.end_effector = dataclasses.replace(shifted.end_effector, offset=(0.35, 0.0, 0.0))
     assert robot_fingerprint(shifted) != robot_fingerprint(mine)
+
+
+def test_source_fingerprint_sees_a_change_that_keeps_size_and_mtime(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The hash index (fingerprint._content_hash) is keyed by size, mtime, ctime and inode: a
+    same-size edit whose mtime is put back (cp -p, tar -x, touch -r) is read again (found by
+    review: keyed by size and mtime alone it kept the old hash)."""
+    import os
+    import time
+
+    from mmplan.compile import fingerprint
+
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(fingerprint, "_INDEX", fingerprint._Index())
+    f = tmp_path / "m.py"
+    f.write_text("x = 1\n")
+    st = os.stat(f)
+    later = time.time_ns() + 60_000_000_000  # every file counts as settled
+    monkeypatch.setattr(fingerprint.time, "time_ns", lambda: later)
+    first = source_fingerprint([f])
+    assert fingerprint._INDEX.get()  # the entry was kept
+    f.write_text("x = 2\n")
+    os.utime(f, ns=(st.st_atime_ns, st.st_mtime_ns))  # same size, mtime put back
+    assert os.stat(f).st_mtime_ns == st.st_mtime_ns
+    assert source_fingerprint([f]) != first

@@ -295,6 +295,10 @@ class NativeFunction:
         self._fn = getattr(lib, name)
         self._lib = lib
 
+    def has(self, name: str) -> bool:
+        """The library defines the symbol ``name``."""
+        return hasattr(self._lib, name)
+
     def signature(self) -> tuple[Any, Any, Any, Any, Any, int]:
         """The ctypes function and its fixed arguments (arg, res, iw, w, mem): to call it from
         C, e.g. on a thread of its own (:mod:`mmplan.compile.threads`)."""

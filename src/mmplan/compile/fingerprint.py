@@ -127,15 +127,15 @@ def source_fingerprint(files: Iterable[str | Path]) -> str:
     return digest.hexdigest()
 
 
-#: A file changed less than this long ago [ns] is always read again: on a file system with
-#: coarse modification times a change within the same tick keeps size and time (git's
-#: "racily clean" entries).
+#: A file changed (contents or metadata) less than this long ago [ns] is always read again:
+#: on a file system with coarse times a change within the same tick keeps size and times
+#: (git's "racily clean" entries).
 RECENT_NS = 3_000_000_000
 
 
 class _Index:
-    """path -> [size, mtime_ns, sha256 of the contents], read once per process from the
-    cache folder and written back (atomically) when it gained entries."""
+    """path -> [size, mtime_ns, ctime_ns, inode, sha256 of the contents], read once per
+    process from the cache folder and written back (atomically) when it gained entries."""
 
     def __init__(self) -> None:
         self.entries: dict[str, list[Any]] | None = None
@@ -162,7 +162,7 @@ class _Index:
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
             with os.fdopen(fd, "w") as out:
-                json.dump(self.get(), out)
+                json.dump(dict(self.get()), out)
             os.replace(tmp, path)
         except OSError:
             pass  # no index: hashed again next time
@@ -172,23 +172,21 @@ _INDEX = _Index()
 
 
 def _content_hash(path: str) -> str:
-    """sha256 of a file's contents: from the index when its size and modification time are
-    those recorded (and it did not change in the last :data:`RECENT_NS`), else read."""
+    """sha256 of a file's contents: from the index when its size, modification and change
+    times and inode are those recorded (and it did not change in the last
+    :data:`RECENT_NS`), else read. The change time cannot be set back: a same-size edit whose
+    modification time a tool restores (cp -p, tar -x, touch -r) is read again."""
     st = os.stat(path)
     entries = _INDEX.get()
     entry = entries.get(path)
-    settled = time.time_ns() - st.st_mtime_ns > RECENT_NS
-    if (
-        settled
-        and isinstance(entry, list)
-        and len(entry) == 3
-        and entry[:2] == [st.st_size, st.st_mtime_ns]
-    ):
-        return str(entry[2])
+    key = [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
+    settled = time.time_ns() - max(st.st_mtime_ns, st.st_ctime_ns) > RECENT_NS
+    if settled and isinstance(entry, list) and len(entry) == 5 and entry[:4] == key:
+        return str(entry[4])
     with open(path, "rb") as source:  # plain open: Path.read_bytes cost 5x more here
         sha = hashlib.sha256(source.read()).hexdigest()
     if settled:
-        entries[path] = [st.st_size, st.st_mtime_ns, sha]
+        entries[path] = [*key, sha]
         _INDEX.dirty = True
     return sha
 

@@ -57,7 +57,7 @@ void mmplan_job_set(mmplan_job *j, void *f, void *arg, void *res, void *iw, void
     j->iw = iw;
     j->w = w;
     j->mem = mem;
-    j->ret = 0;
+    j->ret = -1;
     j->running = 0;
 }
 
@@ -71,7 +71,9 @@ int mmplan_job_start(mmplan_job *j) {
 int mmplan_job_wait(mmplan_job *j) {
     if (j->running) pthread_join(j->thread, NULL);
     j->running = 0;
-    return j->ret;
+    int ret = j->ret;
+    j->ret = -1;  /* the next wait without a start has no result */
+    return ret;
 }
 """
 

@@ -16,7 +16,7 @@ The operations and their order are those of :func:`.passes.backward_step` and
 Builds in about 0.2 s instead of 1.75 s for the generated passes.
 
 The backward step's pairs fall in two groups: those among the interval's own slabs and the
-box on u (most of them: 528 of 561 for 15 rows), which do not depend on the recursion, and
+box on u (most of them: 528 of 561 for 16 rows), which do not depend on the recursion, and
 the 2 n + 1 pairs with the slab of K_{i+1}. The first group runs for all intervals before
 the recursion, split between two threads on paths of 64 intervals or more; max and min are
 exact and drop NaN in any order, so the bounds are those of the one loop to the bit (tests).

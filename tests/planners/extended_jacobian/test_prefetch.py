@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -26,16 +28,21 @@ def test_guesses_give_the_same_plan_to_the_bit() -> None:
     planner, fns, problem = _plan_fns("youbot3r-obstacles-torque")
     assert fns.native_chunk is not None
     runs = {}
-    for on in (True, False):
-        fns._speculation = Speculation(fns.native_chunk, enabled=on)
-        result = planner.plan(problem)
-        runs[on] = result.trajectory
-        spec = fns._speculation
-        assert spec.enabled is on
-        if on:  # every chunk but the first is a guess taken; the last guess is dropped
-            assert spec.hits >= 5 and spec.misses <= 2
-        else:
-            assert spec.hits == spec.misses == 0
+    kept = fns._speculation
+    try:
+        for on in (True, False):
+            fns._speculation = Speculation(fns.native_chunk, enabled=on)
+            result = planner.plan(problem)
+            runs[on] = result.trajectory
+            spec = fns._speculation
+            assert spec.enabled is on
+            if on:  # every chunk is a guess taken; the last guess is still in flight
+                assert spec.hits >= 5 and spec.misses <= 1
+            else:
+                assert spec.hits == spec.misses == 0
+            spec.settle()
+    finally:
+        fns._speculation = kept  # the cached generator keeps guessing for later tests
     for field in ("t", "q", "dq", "ddq", "tau"):
         np.testing.assert_array_equal(getattr(runs[True], field), getattr(runs[False], field))
 
@@ -122,3 +129,96 @@ def test_waiting_for_a_guess_runs_the_idle_tasks_once() -> None:
     spec.guess(x)
     spec.call(x)
     assert ran == [1]
+
+
+_SLOW = r"""
+#include <unistd.h>
+int mmplan_test_slow(const double **a, double **r, void *iw, double *w, int m) {
+    usleep(50000); r[0][0] = 2.0 * a[0][0]; return 0;
+}
+"""
+
+
+class _Slow:
+    """A compiled function's stand-in whose call takes 50 ms: y = 2 x."""
+
+    def __init__(self) -> None:
+        import ctypes
+
+        path = cg.compile_source(_SLOW, "test_slow")
+        assert path is not None
+        dbl = ctypes.POINTER(ctypes.c_double)
+        self.x, self.y, self._w = np.zeros(1), np.zeros(1), np.zeros(1)
+        self._arg, self._res = (dbl * 1)(), (dbl * 1)()
+        self._arg[0], self._res[0] = self.x.ctypes.data_as(dbl), self.y.ctypes.data_as(dbl)
+        self._iw = (ctypes.c_int * 1)()
+        self._fn = ctypes.CDLL(path).mmplan_test_slow
+
+    def signature(self) -> tuple[object, ...]:
+        import ctypes
+
+        w = self._w.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        return self._fn, self._arg, self._res, self._iw, w, 0
+
+    def __call__(self) -> np.ndarray:
+        self._fn(*self.signature()[1:])
+        return self.y
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork()")
+def test_a_forked_child_does_not_take_a_guess_of_its_parent() -> None:
+    """Before a fork every guess is joined (prefetch._settle_all at fork): a child has no C
+    thread, and without the join it returned its parent's half-written output (0.0, found by
+    review)."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    spec = Speculation(_Slow(), enabled=True)
+    spec.guess(np.array([3.0]))
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.write(write, spec.call(np.array([3.0])).tobytes())
+        os._exit(0)
+    os.waitpid(pid, 0)
+    child = np.frombuffer(os.read(read, 8))
+    assert spec.call(np.array([3.0]))[0] == 6.0
+    assert child[0] == 6.0
+
+
+def test_settle_all_joins_every_guess_whatever_an_idle_task_raises() -> None:
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    from mmplan.planners.extended_jacobian import prefetch
+
+    a, b = (Speculation(_Slow(), enabled=True) for _ in range(2))
+    a.guess(np.array([1.0]))
+    b.guess(np.array([2.0]))
+
+    def fails() -> None:
+        raise OSError("a warm-up that failed")
+
+    prefetch.while_waiting(fails)
+    prefetch._settle_all()
+    assert a._guess is None and b._guess is None
+    np.testing.assert_array_equal(a.call(np.array([4.0])), [8.0])  # the task's error stays in it
+    prefetch._IDLE.clear()
+
+
+def test_each_plan_guesses_its_first_chunk() -> None:
+    """The previous plan's last guess (the chunk after its last) is replaced by the new plan's
+    first chunk (found by review: it stayed in flight, no first-chunk guess)."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    sc = mmplan.load_scenario("youbot3r-obstacles-torque")
+    problem = sc.build()
+    planner = mmplan.get_planner(sc.method)()
+    planner.plan(problem)
+    prep = planner._prepare(problem, guess=True)
+    fns, n = prep.fns, prep.fns.n
+    first = np.concatenate(
+        [prep.q0, np.zeros(n), prep.params, [1.0, 1.0], np.zeros(n), [prep.options.dt]]
+    )
+    spec = fns._speculation
+    assert spec is not None and spec._guess is not None
+    np.testing.assert_array_equal(spec._guess, first)
+    spec.settle()

@@ -134,7 +134,9 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
         )
         native = cg.NativeFunction(library, "mmplan_ej_chunk_flat")
         native_ee = cg.NativeFunction(library, "mmplan_ej_ee_flat")
-    except (OSError, ValueError, KeyError, TypeError, RuntimeError):
+        if not all(native.has(f"mmplan_ej_{x}") for x in NAMES):
+            return None  # loaded lazily: a library without one of them is built again now
+    except (OSError, ValueError, KeyError, TypeError, RuntimeError, AttributeError):
         return None
     reference: dict[str, GeneratorFunctions] = {}
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout
-from mmplan.planners.extended_jacobian.prefetch import Speculation
+from mmplan.planners.extended_jacobian.prefetch import Speculation, speculation_of
 from mmplan.planners.extended_jacobian.step import CHUNK
 
 
@@ -194,11 +194,12 @@ class GeneratorFunctions:
         n = self.n
         q, p = np.asarray(q, dtype=float), np.asarray(p, dtype=float)
         par = np.concatenate([p, [1.0, 1.0], np.zeros(n), [dt]])  # as run_chunk builds it
-        self._speculate().guess(np.concatenate([q, np.zeros(n), par]))
+        # replace: the previous plan's guess (the chunk after its last) is in flight
+        self._speculate().guess(np.concatenate([q, np.zeros(n), par]), replace=True)
 
     def _speculate(self) -> Speculation:
         if self._speculation is None:
-            self._speculation = Speculation(self.native_chunk)
+            self._speculation = speculation_of(self.native_chunk)
         return self._speculation
 
     def _native_call(self, x: Array, guess_next: bool = False) -> Array:

@@ -30,6 +30,7 @@ function has one set of buffers).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import weakref
 from collections.abc import Callable
@@ -46,6 +47,16 @@ def cores() -> int:
     if hasattr(os, "sched_getaffinity"):
         return len(os.sched_getaffinity(0))
     return os.cpu_count() or 1
+
+
+def speculation_of(native: Any) -> Speculation:
+    """The one :class:`Speculation` of a compiled function (kept on it: two over the same
+    buffers would race)."""
+    found = getattr(native, "_mmplan_speculation", None)
+    if not isinstance(found, Speculation):
+        found = Speculation(native)
+        native._mmplan_speculation = found
+    return found
 
 
 class Speculation:
@@ -72,7 +83,7 @@ class Speculation:
     def __del__(self) -> None:
         # the C thread writes into buffers this object keeps alive: never free them under it
         if getattr(self, "_guess", None) is not None:
-            self.settle()
+            self._settle(None, idle=False)
 
     @property
     def enabled(self) -> bool:
@@ -93,8 +104,11 @@ class Speculation:
             self._wanted = False
         return self._job is not None
 
-    def guess(self, x: Array) -> None:
-        """Start the call at x on a C thread (nothing when disabled or one is in flight)."""
+    def guess(self, x: Array, replace: bool = False) -> None:
+        """Start the call at x on a C thread (nothing when disabled or, unless ``replace``,
+        when one is in flight; ``replace``: a guess in flight is joined and dropped first)."""
+        if replace and self._guess is not None:
+            self._settle(None, idle=False)
         if self._guess is not None or not self._ready() or self._job is None:
             return
         self._native.x[:] = x
@@ -117,17 +131,20 @@ class Speculation:
         """Wait for a guess in flight and drop it."""
         self._settle(None)
 
-    def _settle(self, x: Array | None) -> bool:
-        """Join a guess in flight (running :func:`while_waiting`'s tasks first); True when it
-        was made at x and succeeded."""
-        guess, self._guess = self._guess, None
+    def _settle(self, x: Array | None, idle: bool = True) -> bool:
+        """Join a guess in flight (running :func:`while_waiting`'s tasks first when ``idle``);
+        True when it was made at x and succeeded."""
+        guess = self._guess
         if guess is None or self._job is None:
             return False
         try:
-            while _IDLE:
-                _IDLE.pop(0)()
-        finally:  # joined whatever a task raised: the thread writes into our buffers
+            while idle and _IDLE:
+                task = _IDLE.pop(0)
+                with contextlib.suppress(Exception):  # a warm-up: left to whoever needs it
+                    task()
+        finally:  # joined whatever happened: the thread writes into our buffers
             code = self._job.wait()
+            self._guess = None
         ok = code == 0 and x is not None and _same(guess, x)
         self.misses += 0 if ok else 1
         return ok
@@ -151,10 +168,16 @@ def while_waiting(task: Callable[[], object]) -> None:
 _LIVE: weakref.WeakSet[Speculation] = weakref.WeakSet()
 
 
-@atexit.register
 def _settle_all() -> None:
+    """Join every guess in flight (at exit: its buffers are freed; before a fork: a child
+    has no such thread, and its join would return at once on buffers half written)."""
     for speculation in list(_LIVE):
-        speculation.settle()
+        speculation._settle(None, idle=False)
+
+
+atexit.register(_settle_all)
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(before=_settle_all)
 
 
 def _same(a: Array, b: Array) -> bool:
