@@ -77,3 +77,16 @@ def test_the_helper_is_built_in_the_background_when_missing(cache: Path) -> None
     assert len(threads._PENDING) == 1
     threads._PENDING.pop().join()
     assert threads.ready() and threads.library() is not None
+
+
+def test_a_wait_without_a_start_has_no_result(cache: Path) -> None:
+    """After a job's result was taken, another wait (no start between: an interrupted guess)
+    returns -1, not the old code 0 that would count stale output as computed (review)."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native = _native()
+    job = threads.Job(*native.signature())
+    assert job.wait() == -1  # never started
+    job.start()
+    assert job.wait() == 0
+    assert job.wait() == -1
