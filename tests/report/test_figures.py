@@ -163,6 +163,37 @@ def test_background_job_returns_the_childs_result_or_runs_here() -> None:
     Background(lambda: 1, enabled=True).cancel()  # no zombie, no error
 
 
+def test_staged_job_sends_each_stage_or_runs_here() -> None:
+    from mmplan.report.background import Staged, can_fork
+
+    parent = os.getpid()
+
+    def stages() -> Any:
+        yield os.getpid()
+        yield np.arange(3)
+
+    job = Staged(stages)
+    assert (job.next() != parent) == can_fork()  # computed in a child where fork is available
+    assert job.next().tolist() == [0, 1, 2]
+    job.cancel()
+    here = Staged(stages, enabled=False)
+    assert here.next() == parent and here.next().tolist() == [0, 1, 2]
+
+    def fails_later() -> Any:
+        yield "first"
+        if os.getpid() != parent:
+            raise RuntimeError("only in the child")
+        yield "second"
+
+    job = Staged(fails_later)
+    assert [job.next(), job.next()] == ["first", "second"]  # re-run here, "first" skipped
+    job.cancel()
+    job = Staged(lambda: iter([1 // 0]))
+    with pytest.raises(ZeroDivisionError):
+        job.next()  # fails here too: the error surfaces
+    Staged(stages).cancel()  # no zombie, no error
+
+
 def test_history_axis_is_time_or_iteration(tmp_path: Path) -> None:
     from mmplan.report.figures_method import history_figure
 

@@ -16,13 +16,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from importlib.util import find_spec
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from mmplan.errors import MmplanError
-
-if TYPE_CHECKING:
-    from mmplan.report.background import Background
-    from mmplan.report.figure_kit import RenderedFigure
 
 
 class MissingExtraError(MmplanError, ImportError):
@@ -35,18 +30,17 @@ for _extra in ("matplotlib", "meshcat"):  # the figures; the 3D viewer
 
 
 def write_report(plan_dir: str | Path, max_frames: int = 1000,
-                 step: Callable[[str], None] | None = None, parallel: bool = True,
-                 files_job: Background[list[RenderedFigure]] | None = None) -> Path:
+                 step: Callable[[str], None] | None = None, parallel: bool = True) -> Path:
     """Write ``plan_dir/report.html`` and ``plan_dir/figures/*.png`` (see
-    :func:`mmplan.report.build.write_report`, also for ``files_job``), without numerical
-    warnings on stderr.
+    :func:`mmplan.report.build.write_report`), without numerical warnings on stderr.
 
-    The plotting stack is imported here, on first use (half a second), not with the package.
+    The plotting stack and the models are imported on first use (half a second), not with
+    the package.
     """
     from mmplan.report import build
 
     with quiet_numerics():
-        return build.write_report(plan_dir, max_frames, step, parallel, files_job)
+        return build.write_report(plan_dir, max_frames, step, parallel)
 
 
 @contextmanager

@@ -1,62 +1,67 @@
 """Writing a report: read the plan directory, derive, draw, assemble, write.
 
 ``write_report(DIR)`` writes ``DIR/report.html`` (one self-contained file) and
-``DIR/figures/<name>.png`` (the same figures as files). The work is split three ways, each
-part in its own process (:mod:`.background`, forked): the figures of the plan's files alone
-(:mod:`.file_figures`: the method's artifacts and the planner's history; ``mmplan report``
-starts these once matplotlib is loaded, before it loads the robot models), the 3D view
-(importing meshcat) with the spatial figures and the clearance, and the other time series,
-drawn by this process.
+``DIR/figures/<name>.png`` (the same figures as files). The work is spread over four processes
+(:mod:`.background`, forked), so that loading the libraries overlaps as well as drawing:
+
+* the models' process, forked first (before matplotlib is loaded): loads the robot and scene
+  models, derives (:mod:`.context`), sends the figures' data (:mod:`.figure_data`) and the
+  summary, then builds the 3D view (meshcat) and runs what the caller adds (``mmplan report``:
+  the plan's check);
+* this process meanwhile loads matplotlib, then forks the figures of the plan's files alone
+  (:mod:`.file_figures`: the method's artifacts and the planner's history) and, once the
+  figures' data arrive, the spatial figures with the clearance; it draws the other time series
+  itself. It never loads the models.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from mmplan.errors import InputError
-from mmplan.report.background import Background
-from mmplan.report.context import ReportContext, build_context
-from mmplan.report.figure_kit import RenderedFigure
-from mmplan.report.figures import TIME_FIGURES, TimeFigure, clearance_figure
-from mmplan.report.figures_space import platform_figure, top_view_figure
-from mmplan.report.file_figures import file_figures
-from mmplan.report.html import page, viewer_block
-from mmplan.report.overview import overview
-from mmplan.report.plan_data import read_plan_dir
+from mmplan.report.background import Background, Staged
+from mmplan.report.plan_data import PlanData, check_plan_dir, read_plan_dir
+
+if TYPE_CHECKING:  # the models and matplotlib: loaded where they are used
+    from mmplan.report.context import ReportContext
+    from mmplan.report.figure_data import FigureData
+    from mmplan.report.figure_kit import RenderedFigure
+    from mmplan.report.figures import TimeFigure
+    from mmplan.report.summary_rows import Overview
 
 Step = Callable[[str], None]
+T = TypeVar("T")
 
 
 def _none(label: str) -> None:
     """No progress display."""
 
 
-def first_half(ctx: ReportContext) -> list[RenderedFigure]:
-    """The spatial figures and the clearance over time (drawn with the 3D view)."""
-    return [top_view_figure(ctx), platform_figure(ctx), *_drawn(ctx, CHILD_SERIES)]
+def _nothing() -> None:
+    """No further work in the models' process."""
 
 
-def second_half(ctx: ReportContext) -> list[RenderedFigure]:
+def first_half(data: FigureData) -> list[RenderedFigure]:
+    """The spatial figures and the clearance over time (drawn in a child process)."""
+    from mmplan.report.figures import clearance_figure
+    from mmplan.report.figures_space import platform_figure, top_view_figure
+
+    return [top_view_figure(data), platform_figure(data), *_drawn(data, (clearance_figure,))]
+
+
+def second_half(data: FigureData) -> list[RenderedFigure]:
     """The other time series ([PajakPajak]'s and [Pajak]'s figures)."""
-    return _drawn(ctx, tuple(f for f in TIME_FIGURES if f not in CHILD_SERIES))
+    from mmplan.report.figures import TIME_FIGURES, clearance_figure
+
+    return _drawn(data, tuple(f for f in TIME_FIGURES if f is not clearance_figure))
 
 
-def _drawn(ctx: ReportContext, makers: tuple[TimeFigure, ...]) -> list[RenderedFigure]:
-    return [f for f in (make(ctx) for make in makers) if f is not None]
+def _drawn(data: FigureData, makers: tuple[TimeFigure, ...]) -> list[RenderedFigure]:
+    return [f for f in (make(data) for make in makers) if f is not None]
 
 
-def view_and_first_half(ctx: ReportContext, max_frames: int) -> tuple[str, list[RenderedFigure]]:
-    """The 3D view's HTML block and :func:`first_half`."""
-    from mmplan.report.scene3d import scene_commands  # meshcat: imported here, once
-
-    return viewer_block(scene_commands(ctx, max_frames)), first_half(ctx)
-
-
-#: Time series drawn with the 3D view and the spatial figures (about half the drawing time
-#: with them; the file figures are drawn apart).
-CHILD_SERIES: tuple[TimeFigure, ...] = (clearance_figure,)
 TIME_SERIES = ("clearance", "joints", "manipulability", "torques_wheels", "torques_arm",
                "virtual_control", "extra_columns", "task_error")
 
@@ -71,12 +76,31 @@ def order(figures: list[RenderedFigure]) -> list[RenderedFigure]:
 
 def collect_figures(ctx: ReportContext) -> list[RenderedFigure]:
     """Every figure the plan has data for, in report order (drawn in this process)."""
-    return order(first_half(ctx) + second_half(ctx) + file_figures(ctx.plan))
+    from mmplan.report.figure_data import figure_data
+    from mmplan.report.file_figures import file_figures
+
+    data = figure_data(ctx)
+    return order(first_half(data) + second_half(data) + file_figures(ctx.plan))
+
+
+def model_stages(root: Path, max_frames: int, also: Callable[[], T]) -> Iterator[Any]:
+    """The models' process: (figure data, summary), then the 3D view's HTML block, then
+    ``also()``."""
+    from mmplan.report.context import build_context
+    from mmplan.report.figure_data import figure_data
+    from mmplan.report.overview import overview
+
+    ctx = build_context(read_plan_dir(root), max_samples=max_frames)
+    yield figure_data(ctx), overview(ctx)
+    from mmplan.report.html import viewer_block
+    from mmplan.report.scene3d import scene_commands  # meshcat: imported here, once
+
+    yield viewer_block(scene_commands(ctx, max_frames))
+    yield also()
 
 
 def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None = None,
-                 parallel: bool = True,
-                 files_job: Background[list[RenderedFigure]] | None = None) -> Path:
+                 parallel: bool = True) -> Path:
     """Write ``plan_dir/report.html`` and ``plan_dir/figures/*.png``.
 
     Args:
@@ -85,9 +109,6 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None
         max_frames: Keyframes of the 3D animation (the trajectory is decimated), 2..2000.
         step: Called with the name of each step as it starts (progress display).
         parallel: Draw parts of the report in forked child processes (Linux).
-        files_job: :func:`~mmplan.report.file_figures.start_file_figures` of ``plan_dir``,
-            started earlier by the caller (its result is used, or it is cancelled); None:
-            started here.
 
     Returns:
         Path of the written report.html.
@@ -95,27 +116,51 @@ def write_report(plan_dir: str | Path, max_frames: int = 1000, step: Step | None
     Raises:
         InputError: the directory or one of its files is missing or malformed.
     """
+    return write_report_and(plan_dir, _nothing, max_frames, step, parallel)[0]
+
+
+def write_report_and(plan_dir: str | Path, also: Callable[[], T], max_frames: int = 1000,
+                     step: Step | None = None, parallel: bool = True,
+                     also_step: str = "") -> tuple[Path, T]:
+    """:func:`write_report`, and ``also()`` run in the process that loads the models, after
+    the 3D view (``mmplan report``: the plan's check); its result is returned with the
+    report's path (``also`` must return something picklable). ``also_step``: the progress
+    step shown while waiting for it once the report is written."""
     step = step or _none
-    root = Path(plan_dir)
-    jobs: list[Background[Any]] = [] if files_job is None else [files_job]
+    root = check_plan_dir(plan_dir)  # a missing file is named at once, before any import
+    step("reading the plan")
+    jobs: list[Background[Any] | Staged[Any]] = []
     try:
-        step("reading the plan")
-        plan = read_plan_dir(root)
-        if files_job is None:
-            jobs.append(Background(lambda: file_figures(plan), enabled=parallel))
-        files = jobs[0]
-        ctx = build_context(plan, max_samples=max_frames)
+        models: Staged[Any] = Staged(lambda: model_stages(root, max_frames, also),
+                                     enabled=parallel)
+        jobs.append(models)
+        from mmplan.report.file_figures import start_file_figures  # matplotlib: 0.5 s
+
+        files = start_file_figures(root, enabled=parallel)
+        jobs.append(files)
+        data, view = models.next()
         step("drawing the figures and the 3D view")
-        child = Background(lambda: view_and_first_half(ctx, max_frames), enabled=parallel)
+        child = Background(lambda: first_half(data), enabled=parallel)
         jobs.append(child)
-        own = second_half(ctx)
-        viewer, theirs = child.result()
-        figures = order(theirs + own + files.result())
+        own = second_half(data)
+        figures = order(child.result() + own + files.result())
+        viewer = models.next()
+        step("writing the page")
+        out = _write(root, data.plan, view, figures, viewer)
+        if also_step:
+            step(also_step)
+        return out, models.next()
     finally:
         for job in jobs:
             job.cancel()
-    step("writing the page")
-    text = page(plan.summary, plan.scenario, overview(ctx), figures, viewer)
+
+
+def _write(root: Path, plan: PlanData, view: Overview, figures: list[RenderedFigure],
+           viewer: str) -> Path:
+    """Write the page and the figures' files; the page's path."""
+    from mmplan.report.html import page
+
+    text = page(plan.summary, plan.scenario, view, figures, viewer)
     folder = root / "figures"
     try:
         folder.mkdir(exist_ok=True)

@@ -10,7 +10,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from mmplan.report.context import ReportContext
+from mmplan.report.figure_data import FigureData
 from mmplan.report.figure_kit import (
     RenderedFigure,
     legend_outside,
@@ -20,7 +20,6 @@ from mmplan.report.figure_kit import (
     new_figure,
     render,
 )
-from mmplan.report.overview import effort_unit
 from mmplan.report.palette import obstacle_color
 
 #: Units of further trajectory columns ([JaniakTchon]'s platform controls: drive speed,
@@ -28,7 +27,7 @@ from mmplan.report.palette import obstacle_color
 EXTRA_UNITS = {"u1": "m/s", "u2": "rad/s"}
 
 
-def clearance_figure(ctx: ReportContext) -> RenderedFigure | None:
+def clearance_figure(ctx: FigureData) -> RenderedFigure | None:
     """Minimal robot-obstacle distance over time with neighbourhoods ([PajakPajak] Figs. 3, 8)."""
     if not ctx.obstacles or not np.isfinite(ctx.clearance).any():
         return None
@@ -59,16 +58,14 @@ def clearance_figure(ctx: ReportContext) -> RenderedFigure | None:
     )
 
 
-def joints_figure(ctx: ReportContext) -> RenderedFigure | None:
+def joints_figure(ctx: FigureData) -> RenderedFigure | None:
     """Mean-normalized arm joint angles with their limits at +-0.5 ([PajakPajak] Figs. 4, 9)."""
-    robot = ctx.robot
-    if not robot.arm_indices:
+    if not ctx.arm_indices:
         return None
-    values = ctx.plan.q[:, list(robot.arm_indices)]
-    lim = robot.limits
-    norm, by_limits = mean_normalized(values, lim.joint_min, lim.joint_max)
+    values = ctx.plan.q[:, list(ctx.arm_indices)]
+    norm, by_limits = mean_normalized(values, ctx.joint_min, ctx.joint_max)
     fig, ax = new_figure()
-    for k, name in enumerate(robot.arm_coordinates):
+    for k, name in enumerate(ctx.arm_coordinates):
         ax.plot(ctx.plan.t, norm[:, k], label=name + ("" if by_limits[k] else " (by range)"))
     limit_line(ax, 0.5)
     limit_line(ax, -0.5, "limits")
@@ -85,12 +82,12 @@ def joints_figure(ctx: ReportContext) -> RenderedFigure | None:
     )
 
 
-def manipulability_figure(ctx: ReportContext) -> RenderedFigure:
+def manipulability_figure(ctx: FigureData) -> RenderedFigure:
     """Arm manipulability mu(q) = sqrt(det(J_a J_a^T)) over time ([PajakPajak] Figs. 5, 10)."""
     fig, ax = new_figure()
     ax.plot(ctx.t_dec, ctx.manipulability, color="tab:purple")
     ax.set_xlabel(ctx.t_label)
-    ax.set_ylabel(f"manipulability [{manipulability_unit(ctx)}]")
+    ax.set_ylabel(f"manipulability [{ctx.manipulability_unit}]")
     mu = ctx.manipulability
     return render(
         fig,
@@ -101,32 +98,23 @@ def manipulability_figure(ctx: ReportContext) -> RenderedFigure:
     )
 
 
-def manipulability_unit(ctx: ReportContext) -> str:
-    """m^3 for the position measure of an all-revolute arm (J_a: m/rad), else ``-`` (mixed)."""
-    robot = ctx.robot
-    revolute = all(j.kind.value == "revolute" for j in robot.tree.joints
-                   if j.coordinate in robot.arm_coordinates)
-    return "m^3" if revolute and robot.end_effector.manipulability == "position" else "-"
-
-
-def _torque_figure(ctx: ReportContext, arm: bool) -> RenderedFigure | None:
-    plan, robot = ctx.plan, ctx.robot
+def _torque_figure(ctx: FigureData, arm: bool) -> RenderedFigure | None:
+    plan = ctx.plan
     if plan.tau is None:
         return None
-    chosen = [i for i, a in enumerate(plan.actuators) if (a in robot.arm_coordinates) == arm]
+    chosen = [i for i, a in enumerate(plan.actuators) if (a in ctx.arm_coordinates) == arm]
     if not chosen:
         return None
-    lim = robot.limits
-    lookup = {a: i for i, a in enumerate(robot.actuators)}
+    lookup = {a: i for i, a in enumerate(ctx.actuators)}
     lo = np.array(
         [
-            lim.torque_min[lookup[plan.actuators[i]]] if plan.actuators[i] in lookup else -np.inf
+            ctx.torque_min[lookup[plan.actuators[i]]] if plan.actuators[i] in lookup else -np.inf
             for i in chosen
         ]
     )
     hi = np.array(
         [
-            lim.torque_max[lookup[plan.actuators[i]]] if plan.actuators[i] in lookup else np.inf
+            ctx.torque_max[lookup[plan.actuators[i]]] if plan.actuators[i] in lookup else np.inf
             for i in chosen
         ]
     )
@@ -134,7 +122,7 @@ def _torque_figure(ctx: ReportContext, arm: bool) -> RenderedFigure | None:
     fig, ax = new_figure()
     for k, i in enumerate(chosen):
         suffix = "" if by_limits[k] else " (no limit: by range)"
-        unit = effort_unit(robot, plan.actuators[i])
+        unit = ctx.effort_units[plan.actuators[i]]
         ax.plot(plan.t, norm[:, k], label=f"{plan.actuators[i]} [{unit}]{suffix}")
     if by_limits.any():
         limit_line(ax, 0.5)
@@ -154,17 +142,17 @@ def _torque_figure(ctx: ReportContext, arm: bool) -> RenderedFigure | None:
     )
 
 
-def wheel_torques_figure(ctx: ReportContext) -> RenderedFigure | None:
+def wheel_torques_figure(ctx: FigureData) -> RenderedFigure | None:
     """Platform actuator efforts, mean-normalized with limits."""
     return _torque_figure(ctx, arm=False)
 
 
-def arm_torques_figure(ctx: ReportContext) -> RenderedFigure | None:
+def arm_torques_figure(ctx: FigureData) -> RenderedFigure | None:
     """Arm joint efforts, mean-normalized with limits."""
     return _torque_figure(ctx, arm=True)
 
 
-def virtual_control_figure(ctx: ReportContext) -> RenderedFigure | None:
+def virtual_control_figure(ctx: FigureData) -> RenderedFigure | None:
     """Virtual control u(t) ([PajakPajak] eq. 21, [Pajak] Fig. 7)."""
     if ctx.plan.u is None:
         return None
@@ -182,7 +170,7 @@ def virtual_control_figure(ctx: ReportContext) -> RenderedFigure | None:
     )
 
 
-def extra_columns_figure(ctx: ReportContext) -> RenderedFigure | None:
+def extra_columns_figure(ctx: FigureData) -> RenderedFigure | None:
     """Further trajectory columns (e.g. platform controls u1, u2 of [JaniakTchon])."""
     extra = {k: v for k, v in ctx.plan.extra.items() if np.isfinite(v).any()}
     if not extra:
@@ -203,7 +191,7 @@ def extra_columns_figure(ctx: ReportContext) -> RenderedFigure | None:
     )
 
 
-def task_error_figure(ctx: ReportContext) -> RenderedFigure | None:
+def task_error_figure(ctx: FigureData) -> RenderedFigure | None:
     """Task error over time (tracking error for paths, distance to goal for reach tasks)."""
     if ctx.task_error is None:
         return None
@@ -236,8 +224,8 @@ def task_error_figure(ctx: ReportContext) -> RenderedFigure | None:
     )
 
 
-#: A time-series figure: drawn from the context, or None without its data.
-TimeFigure = Callable[[ReportContext], RenderedFigure | None]
+#: A time-series figure: drawn from the figure data, or None without its data.
+TimeFigure = Callable[[FigureData], RenderedFigure | None]
 
 TIME_FIGURES: tuple[TimeFigure, ...] = (
     clearance_figure,
@@ -251,6 +239,6 @@ TIME_FIGURES: tuple[TimeFigure, ...] = (
 )
 
 
-def time_figures(ctx: ReportContext) -> list[RenderedFigure]:
+def time_figures(ctx: FigureData) -> list[RenderedFigure]:
     """Every time-series figure the plan has data for, in report order."""
     return [f for f in (make(ctx) for make in TIME_FIGURES) if f is not None]

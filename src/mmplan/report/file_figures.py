@@ -1,11 +1,10 @@
-"""The figures drawn from a plan directory's files alone, started before the robot models load.
+"""The figures drawn from a plan directory's files alone (no robot, scene or task model).
 
 The method's artifacts (artifacts.npz: the vibration spectrum, the manipulability-area
-figures, generic arrays) and the planner's history (history.csv) need no robot, scene or task
-model: only NumPy, matplotlib and the files. ``mmplan report`` therefore loads matplotlib
-first and draws them in a child process forked before it loads the models (CasADi, the
-scenario schema, the robots), so they are drawn on the second core meanwhile, see
-:func:`start_file_figures`. Importing this module loads neither matplotlib nor the models.
+figures, generic arrays) and the planner's history (history.csv) need only NumPy, matplotlib
+and the files, so a report draws them in a child process forked as soon as matplotlib is
+loaded (:func:`start_file_figures`, see :mod:`mmplan.report.build`). Importing this module
+loads neither matplotlib nor the models.
 """
 
 from __future__ import annotations

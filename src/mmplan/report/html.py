@@ -21,11 +21,10 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from mmplan.report.figure_kit import RenderedFigure
-from mmplan.report.overview import Overview
-
-if TYPE_CHECKING:  # meshcat is imported only where the 3D view is built
+if TYPE_CHECKING:  # matplotlib and meshcat: imported only where figures and the 3D view are made
+    from mmplan.report.figure_kit import RenderedFigure
     from mmplan.report.scene3d import Scene3D
+    from mmplan.report.summary_rows import Overview
 
 CHECK_SCRIPT = """
 window.addEventListener("load", function () {

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from mmplan.report.context import ReportContext
+from mmplan.report.summary_rows import LimitRow, Overview
 from mmplan.robot import Robot
 from mmplan.robot.tree import JointKind
 
@@ -36,38 +36,6 @@ RATE_UNITS = {"platform_speed": ("Platform speed", "m/s", "peak_platform_speed_m
                                         "peak_platform_acceleration_mps2"),
               "platform_yaw_acceleration": ("Platform yaw acceleration", "rad/s^2",
                                             "peak_platform_yaw_acceleration_radps2")}
-
-
-@dataclass(frozen=True)
-class LimitRow:
-    """One limit of the plan: what, the worst value along the plan, the limit, the margin.
-
-    ``ok`` is None where the row is information only (no limit set).
-    """
-
-    key: str
-    what: str
-    worst: str
-    limit: str
-    margin: str
-    ok: bool | None
-
-
-@dataclass(frozen=True)
-class Overview:
-    """The opening of the report.
-
-    Attributes:
-        reached: The task was completed (status ``reached``).
-        headline: One or two sentences: reached or not, and why.
-        facts: (label, value, key) lines: times, clearance, compute time.
-        limits: Rows of the limits table.
-    """
-
-    reached: bool
-    headline: str
-    facts: list[tuple[str, str, str]] = field(default_factory=list)
-    limits: list[LimitRow] = field(default_factory=list)
 
 
 def fmt(value: float | None, unit: str = "", digits: int = 4) -> str:

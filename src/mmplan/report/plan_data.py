@@ -147,11 +147,11 @@ def parse_trajectory(
     return out
 
 
-def read_plan_dir(directory: str | Path) -> PlanData:
-    """Read a plan directory written by ``mmplan plan``.
+def check_plan_dir(directory: str | Path) -> Path:
+    """``directory`` as a path, once it is seen to be a directory with the required files.
 
     Raises:
-        InputError: the directory or a required file is missing or malformed.
+        InputError: it is not, naming the first file missing.
     """
     root = Path(directory)
     if not root.is_dir():
@@ -159,6 +159,16 @@ def read_plan_dir(directory: str | Path) -> PlanData:
     for name in REQUIRED_FILES:
         if not (root / name).is_file():
             raise InputError("plan_dir", f"{root} has no {name} (written by `mmplan plan`)")
+    return root
+
+
+def read_plan_dir(directory: str | Path) -> PlanData:
+    """Read a plan directory written by ``mmplan plan``.
+
+    Raises:
+        InputError: the directory or a required file is missing or malformed.
+    """
+    root = check_plan_dir(directory)
     traj = parse_trajectory(read_csv_columns(root / "trajectory.csv"))
     try:
         summary = json.loads((root / "summary.json").read_text())
