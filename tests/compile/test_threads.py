@@ -90,3 +90,15 @@ def test_a_wait_without_a_start_has_no_result(cache: Path) -> None:
     job.start()
     assert job.wait() == 0
     assert job.wait() == -1
+
+
+def test_a_core_is_idle_only_when_fewer_threads_are_ready_than_the_other_cores(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    for n, others, idle in ((2, 0.0, True), (2, 1.0, False), (4, 2.0, True), (4, 3.0, False),
+                            (1, 0.0, False)):  # fmt: skip
+        monkeypatch.setattr(threads, "cores", lambda n=n: n)
+        monkeypatch.setattr(threads, "_others_running", lambda o=others: o)
+        threads._IDLE_CHECK[0] = -1.0  # look again
+        assert threads.idle_core() is idle, (n, others)
+    threads._IDLE_CHECK[0] = -1.0

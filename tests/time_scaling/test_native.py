@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmplan.compile import codegen
+from mmplan.compile import codegen, threads
 from mmplan.time_scaling import native
 from mmplan.time_scaling import passes as topp_passes
 from mmplan.time_scaling.passes import BIG
@@ -30,6 +30,7 @@ def test_c_loops_equal_the_casadi_steps_bit_for_bit(monkeypatch: pytest.MonkeyPa
     mapped backward steps on the VM), infinite limits, infeasible zones, a restart at m."""
     kernels = native.kernels()
     assert kernels is not None
+    monkeypatch.setattr(threads, "idle_core", lambda: True)  # split whatever the load
     rng = np.random.default_rng(7)
     empty = 0
     for _ in range(40):
@@ -41,10 +42,13 @@ def test_c_loops_equal_the_casadi_steps_bit_for_bit(monkeypatch: pytest.MonkeyPa
         last = (0.0, float(rng.uniform(0.0, 1.0)))
         top = int(rng.integers(0, N - 1))
         data = (alpha, beta, g, sigma, x_up, zone)
-        c_sets = kernels.backward(*data, last, top)
         vm_sets = _vm(monkeypatch, *data, last, top, forward=False)
-        for c, vm in zip(c_sets, vm_sets, strict=True):  # type: ignore[call-overload]
-            np.testing.assert_array_equal(c, vm)
+        for split in (True, False):  # two threads from 64 intervals, and one
+            kernels.split = split
+            c_sets = kernels.backward(*data, last, top)
+            for c, vm in zip(c_sets, vm_sets, strict=True):  # type: ignore[call-overload]
+                np.testing.assert_array_equal(c, vm)
+        kernels.split = True
         empty += bool(np.any(c_sets[2] > 0.5))
         full = kernels.backward(*data, last, N - 2)
         K_lo, K_hi = np.append(full[0], last[0]), np.append(full[1], last[1])

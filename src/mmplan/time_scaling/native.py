@@ -18,10 +18,12 @@ Builds in about 0.2 s instead of 1.75 s for the generated passes.
 The backward step's pairs fall in two groups: those among the interval's own slabs and the
 box on u (most of them: 528 of 561 for 16 rows), which do not depend on the recursion, and
 the 2 n + 1 pairs with the slab of K_{i+1}. The first group runs for all intervals before
-the recursion, split between two threads on paths of 64 intervals or more; max and min are
-exact and drop NaN in any order, so the bounds are those of the one loop to the bit (tests).
-Measured on 607 intervals x 16 rows with the other core busy (load 1.9): 1.57 ms against
-1.46 ms for the one loop, 1.43 ms for the two phases on one thread.
+the recursion, split between two threads on paths of 64 intervals or more while a core is
+idle (:func:`mmplan.compile.threads.idle_core`); max and min are exact and drop NaN in any
+order, so the bounds are those of the one loop to the bit (tests). Measured on the paper
+scenario's 606 intervals x 15 rows (``bench/bench_threads.py``): two threads 0.64x the time
+of one with no other process running, 1.07x and 2.4x with one and two busy processes (a new
+thread waits for a time slice), hence the gate.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from functools import lru_cache
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.compile import codegen
+from mmplan.compile import codegen, threads
 
 FLAGS = ("-O2", "-pthread")
 PREFIX = "topp_native"
@@ -125,14 +127,14 @@ static void *fixed_pairs(void *arg) {
 int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta,
                          const double *g, const double *sigma, const double *x_upper,
                          const double *zone, double k_lo, double k_hi,
-                         double *out_lo, double *out_hi, double *out_empty) {
+                         double *out_lo, double *out_hi, double *out_empty, int may_split) {
     int m = 2 * n + 2, count = top + 1;
     slab *s = malloc(sizeof(slab) * (size_t)m);
     double *pre = malloc(sizeof(double) * 2 * (size_t)(count > 0 ? count : 1));
     if (!s || !pre) { free(s); free(pre); return 1; }
     /* phase 1: the pairs without the recursion's slab, on two threads for long paths */
     fixed_job jobs[2];
-    int parts = count >= SPLIT_FROM ? 2 : 1, half = count / parts;
+    int parts = may_split && count >= SPLIT_FROM ? 2 : 1, half = count / parts;
     for (int t = 0; t < parts; t++) {
         fixed_job J = {n, t * half, t + 1 == parts ? count : (t + 1) * half,
                        alpha, beta, g, sigma, x_upper, zone, pre, pre + count, 0};
@@ -209,6 +211,8 @@ class Kernels:
     def __init__(self, lib: ctypes.CDLL) -> None:
         self._bw, self._fw = lib.mmplan_topp_backward, lib.mmplan_topp_forward
         self._bw.restype = self._fw.restype = ctypes.c_int
+        #: Split the backward pass's fixed pairs over two threads when a core is idle.
+        self.split = True
 
     def backward(
         self, alpha: Array, beta: Array, g: Array, sigma: Array, x_upper: Array, zone: Array,
@@ -219,9 +223,10 @@ class Kernels:
         n = alpha.shape[1]
         out = np.empty((3, top + 1))
         arrays = _contiguous(alpha, beta, g, sigma, x_upper, zone)  # alive during the call
+        split = ctypes.c_int(1 if self.split and threads.idle_core() else 0)
         status = self._bw(ctypes.c_int(n), ctypes.c_int(top), *[_ptr(a) for a in arrays],
                           ctypes.c_double(last[0]), ctypes.c_double(last[1]),
-                          _ptr(out[0]), _ptr(out[1]), _ptr(out[2]))  # fmt: skip
+                          _ptr(out[0]), _ptr(out[1]), _ptr(out[2]), split)  # fmt: skip
         if status != 0:
             raise MemoryError("time scaling: no memory for the backward pass")
         return out[0], out[1], out[2]

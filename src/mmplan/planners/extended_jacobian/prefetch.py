@@ -14,17 +14,20 @@ plan also starts its first chunk this way as soon as its parameters are packed
 (:meth:`~mmplan.planners.extended_jacobian.functions.GeneratorFunctions.guess_chunk`), and
 the interpreter, idle while it waits, runs small tasks meanwhile (:func:`while_waiting`).
 
-Measured (the same plan 30 times in one process, guesses on and off alternately, medians):
-23.4 against 25.3 ms on a quiet machine, 37.6-40.0 against 43.8-47.0 ms with the other core
-busy; after it the rollout's time is that of its C chunks (13 of 0.75 ms), the checks hidden.
+Measured (``bench/bench_threads.py``: 30 warm plans each way, interleaved): guesses on / off
+0.84 of the time with no other process running, but 1.33 and 1.17 with one and two busy
+processes beside (a new thread waits for a time slice), so guesses pause while no core is
+idle (:func:`mmplan.compile.threads.idle_core`, the load average). With guesses the rollout
+takes the time of its C chunks (13 of about 0.75 ms), the checks hidden.
 
-Nothing is started on a machine with one usable core (the guess would only compete with the
-checks for it), nor without the compiled thread helper. One call is in flight at most, and
-the compiled function's buffers are used by one thread at a time: every call goes through
-:meth:`Speculation.call`, which first takes or drops the guess in flight. A
-:class:`~mmplan.planners.extended_jacobian.functions.GeneratorFunctions` is therefore not to
-be shared between threads that plan at the same time (nor was it before: the compiled
-function has one set of buffers).
+Nothing is started on a machine with one usable core, nor without the compiled thread
+helper. One call is in flight at most, and the compiled function's buffers are used by one
+thread at a time: every call goes through :meth:`Speculation.call`, which first takes or
+drops the guess in flight, and a compiled function has one :class:`Speculation`
+(:func:`speculation_of`). Guesses are joined before a fork and at exit. A
+:class:`~mmplan.planners.extended_jacobian.functions.GeneratorFunctions` is not to be shared
+between threads that plan at the same time (nor was it before: the compiled function has one
+set of buffers).
 """
 
 from __future__ import annotations
@@ -40,13 +43,6 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.compile import threads
-
-
-def cores() -> int:
-    """Cores this process may run on."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 def speculation_of(native: Any) -> Speculation:
@@ -72,7 +68,10 @@ class Speculation:
 
     def __init__(self, native: Any, enabled: bool | None = None) -> None:
         self._native = native
-        self._wanted = cores() >= 2 if enabled is None else enabled
+        self._wanted = threads.cores() >= 2 if enabled is None else enabled
+        #: Pause while no core is idle (:func:`mmplan.compile.threads.idle_core`); off when
+        #: ``enabled`` was given.
+        self.follow_load = enabled is None
         self._job: threads.Job | None = None
         self._guess: Array | None = None
         #: Guesses taken and dropped so far (tests, benches).
@@ -110,6 +109,8 @@ class Speculation:
         if replace and self._guess is not None:
             self._settle(None, idle=False)
         if self._guess is not None or not self._ready() or self._job is None:
+            return
+        if self.follow_load and not threads.idle_core():
             return
         self._native.x[:] = x
         self._guess = np.array(x, dtype=float)
