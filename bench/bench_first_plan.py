@@ -12,7 +12,8 @@ Targets (issue: speed as a user meets it): motion / compute >= 1000 with the def
 first compile of youbot-3r < 5 s. Run: ``python bench/bench_first_plan.py [--repeat 5]
 [--scenario NAME] [--load N] [--baseline-src DIR]``; with ``--baseline-src`` (e.g. the
 ``src`` of ``git archive HEAD src | tar -x -C DIR``) the same runs of that code version are
-interleaved with these and the ratios printed.
+interleaved with these (ABBA) and the ratios printed, for the warm CLI also the median of the
+paired ratios (this machine's speed drifts between minutes: pairs compare like with like).
 """
 
 from __future__ import annotations
@@ -67,8 +68,8 @@ def measure(scenario: str, repeat: int, tmp: Path, codes: dict[str, str | None])
     res: dict[str, dict] = {k: {"warm": [], "steady": []} for k in codes}
     for k, src in codes.items():
         res[k]["cold"], res[k]["motion"] = cli_plan(scenario, tmp / f"{k}c", str(tmp / k), src)
-    for i in range(repeat):
-        for k, src in codes.items():
+    for i in range(repeat):  # ABBA order: a load that changes weighs on both alike
+        for k, src in (list(codes.items()) if i % 2 == 0 else list(codes.items())[::-1]):
             res[k]["warm"].append(cli_plan(scenario, tmp / f"{k}{i}", str(tmp / k), src)[0])
     for k, src in codes.items():
         res[k]["steady"] = in_process(scenario, repeat, str(tmp / k), src)
@@ -112,6 +113,9 @@ def main() -> None:
         b, t = res["baseline"], res["this"]
         print(f"this / baseline: CLI warm compute {t['w'] / b['w']:.2f}, first plan "
               f"{t['cold'] / b['cold']:.2f}, motion {t['motion'] / b['motion']:.6f}")  # fmt: skip
+        pairs = [x / y for x, y in zip(t["warm"], b["warm"], strict=True)]
+        print(f"  CLI warm compute, median of the {len(pairs)} paired ratios (run i of each): "
+              f"{statistics.median(pairs):.3f}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -6,9 +6,10 @@ measured on youbot3r-obstacles-torque, a Python worker that ran the next compile
 during the rollout's checks made the plan 2 ms slower, not faster. Here the call runs on a
 POSIX thread started from C: :meth:`Job.start` returns at once, :meth:`Job.wait` joins it
 (ctypes releases the lock while waiting). The few lines of C are compiled once per machine
-(:func:`mmplan.compile.codegen.load_source`, about 0.1 s, in the background: :func:`prefetch`)
-and cached with the other libraries; without threads a job runs inside :meth:`Job.start` (same
-result, no overlap).
+(:func:`mmplan.compile.codegen.load_source`, about 0.2 s, in the background: :func:`prefetch`,
+started by the first rollout that wants it, after the generator's own compile, which it
+would otherwise slow) and cached with the other libraries; without threads a job runs inside
+:meth:`Job.start` (same result, no overlap).
 """
 
 from __future__ import annotations

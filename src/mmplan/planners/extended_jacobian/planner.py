@@ -33,7 +33,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.compile import codegen as cg
-from mmplan.compile import threads
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.extended_jacobian import cache as ej_cache
@@ -197,7 +196,6 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         if time_scaling or options.rates is not None:  # the passes compile alongside the
             topp_passes.prefetch()  # generator, or load while the first chunk computes
             ej_prefetch.while_waiting(topp_passes.load)
-        threads.prefetch()  # the rollout's C thread helper too (prefetch.py)
         built = ej_cache.generator(
             robot,
             partition,
