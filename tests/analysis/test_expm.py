@@ -64,3 +64,21 @@ def test_the_study_does_not_import_scipy_linalg() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "False"
+
+
+def test_a_stack_of_scaled_exponentials_equals_one_at_a_time() -> None:
+    """expm_scaled(A, h) against expm(h A) for the vibration study's oscillator matrix over
+    step lengths that need 0 to several squarings, and for a random matrix."""
+    from mmplan.analysis.expm import expm, expm_scaled
+
+    w, z = 2 * np.pi * 15.0, 0.05
+    aug = np.zeros((4, 4))
+    aug[:2, :2] = [[0.0, 1.0], [-(w**2), -2 * z * w]]
+    aug[1, 2], aug[2, 3] = -1.0, 1.0
+    rng = np.random.default_rng(2)
+    for matrix in (aug, rng.normal(size=(4, 4))):
+        hs = np.concatenate([[1e-6, 0.001, 0.02, 0.0275], rng.uniform(0.0, 0.5, 20)])
+        stack = expm_scaled(matrix, hs)
+        for h, got in zip(hs, stack, strict=True):
+            want = expm(matrix * h)
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-13 * np.abs(want).max())
