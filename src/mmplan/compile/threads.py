@@ -105,11 +105,11 @@ def idle_core() -> bool:
     """A core is free for a helper thread beside the caller's: two or more cores and fewer
     other threads ready to run than the cores less one (looked up at most every 0.25 s).
     With every core busy a new thread waits for a time slice beside the other processes:
-    measured (``bench/bench_threads.py``) the rollout's guessed chunks made plans 1.14-1.35x
-    slower and the two-thread backward pass 1.03-2.4x slower with one or two busy processes,
-    against 0.84-0.91x and 0.65x with none. The count of threads ready now, not the load
-    average: a short command's own load is not in the average yet, a long-running loop's
-    is."""
+    measured (``bench/bench_threads.py``, three runs) the rollout's guessed chunks made plans
+    1.06-1.35x slower and the two-thread backward pass 1.03-2.8x slower with one or two busy
+    processes, against 0.84-0.91x and 0.65-0.66x with none. The count of threads ready now,
+    not the load average: a short command's own load is not in the average yet, a
+    long-running loop's is."""
     now = time.monotonic()
     if now - _IDLE_CHECK[0] > 0.25:
         n = cores()

@@ -21,9 +21,9 @@ the 2 n + 1 pairs with the slab of K_{i+1}. The first group runs for all interva
 the recursion, split between two threads on paths of 64 intervals or more while a core is
 idle (:func:`mmplan.compile.threads.idle_core`); max and min are exact and drop NaN in any
 order, so the bounds are those of the one loop to the bit (tests). Measured on the paper
-scenario's 606 intervals x 15 rows (``bench/bench_threads.py``): two threads 0.64x the time
-of one with no other process running, 1.07x and 2.4x with one and two busy processes (a new
-thread waits for a time slice), hence the gate.
+scenario's 606 intervals x 15 rows (``bench/bench_threads.py``, three runs): two threads
+0.64-0.66x the time of one with no other process running, 1.03-1.07x and 2.4-2.8x with one and
+two busy processes (a new thread waits for a time slice), hence the gate.
 """
 
 from __future__ import annotations

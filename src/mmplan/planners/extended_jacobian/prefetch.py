@@ -14,11 +14,11 @@ plan also starts its first chunk this way as soon as its parameters are packed
 (:meth:`~mmplan.planners.extended_jacobian.functions.GeneratorFunctions.guess_chunk`), and
 the interpreter, idle while it waits, runs small tasks meanwhile (:func:`while_waiting`).
 
-Measured (``bench/bench_threads.py``: 30 warm plans each way, interleaved): guesses on / off
-0.84 of the time with no other process running, but 1.33 and 1.17 with one and two busy
-processes beside (a new thread waits for a time slice), so guesses pause while no core is
-idle (:func:`mmplan.compile.threads.idle_core`, the load average). With guesses the rollout
-takes the time of its C chunks (13 of about 0.75 ms), the checks hidden.
+Measured (``bench/bench_threads.py``: 30 warm plans each way, interleaved, three runs):
+guesses on / off 0.84-0.91 of the time with no other process running, but 1.06-1.35 with one
+or two busy processes beside (a new thread waits for a time slice), so guesses pause while no
+core is idle (:func:`mmplan.compile.threads.idle_core`: the threads ready to run now). With
+guesses the rollout takes the time of its C chunks (13 of about 0.75 ms), the checks hidden.
 
 Nothing is started on a machine with one usable core, nor without the compiled thread
 helper. One call is in flight at most, and the compiled function's buffers are used by one
