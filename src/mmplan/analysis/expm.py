@@ -53,9 +53,9 @@ def balance(matrix: Array, sweeps: int = 50) -> tuple[Array, Array]:
 
 
 def _pade13(a: Array) -> Array:
-    """exp(a) for a matrix of 1-norm <= THETA13."""
+    """exp(a) for a matrix (n, n), or a stack of them (K, n, n), of 1-norm <= THETA13."""
     b = PADE13
-    eye = np.eye(len(a))
+    eye = np.eye(a.shape[-1])
     a2 = a @ a
     a4 = a2 @ a2
     a6 = a4 @ a2
@@ -93,24 +93,10 @@ def expm_scaled(matrix: ArrayLike, scales: ArrayLike) -> Array:
         squarings = np.where(ratio > 1.0, np.ceil(np.log2(np.maximum(ratio, 1.0))), 0.0)
     squarings = squarings.astype(int)
     stack = (h / 2.0**squarings)[:, None, None] * a[None, :, :]
-    out = _pade13_stack(stack)
+    out = _pade13(stack)
     for k in range(int(squarings.max(initial=0))):
         more = squarings > k
         out[more] = out[more] @ out[more]
     result: Array = d[None, :, None] * out / d[None, None, :]
     return result
 
-
-def _pade13_stack(a: Array) -> Array:
-    """:func:`_pade13` of a stack of matrices (K, n, n)."""
-    b = PADE13
-    eye = np.eye(a.shape[-1])[None, :, :]
-    a2 = a @ a
-    a4 = a2 @ a2
-    a6 = a4 @ a2
-    u = a @ (a6 @ (b[13] * a6 + b[11] * a4 + b[9] * a2)
-             + b[7] * a6 + b[5] * a4 + b[3] * a2 + b[1] * eye)
-    v = (a6 @ (b[12] * a6 + b[10] * a4 + b[8] * a2)
-         + b[6] * a6 + b[4] * a4 + b[2] * a2 + b[0] * eye)
-    out: Array = np.asarray(np.linalg.solve(v - u, v + u), dtype=float)
-    return out

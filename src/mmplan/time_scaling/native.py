@@ -83,6 +83,16 @@ static double interval(int n, int i, const double *alpha, const double *beta,
     return delta;
 }
 
+/* The bounds on x of the vertex of two slabs, folded into [x_lo, x_hi] (passes._pair). */
+static void pair(slab s1, slab s2, double *x_lo, double *x_hi) {
+    double det = s1.a * s2.b - s2.a * s1.b;
+    double r1 = (s1.lo * s2.b - s2.hi * s1.b) / det;
+    double r2 = (s1.hi * s2.b - s2.lo * s1.b) / det;
+    int pos = det >= 0;
+    *x_lo = mx(*x_lo, sel(pos, r1, r2));
+    *x_hi = mn(*x_hi, sel(pos, r2, r1));
+}
+
 /* Bounds on x_i from every pair of the slabs that do not depend on the recursion (the 2 n
    slabs of interval i and the box on u), intervals [i0, i1), into pre_lo / pre_hi (with x_lo
    from 0 and x_hi from x_upper[i]). */
@@ -102,18 +112,8 @@ static void *fixed_pairs(void *arg) {
         interval(n, i, J->alpha, J->beta, J->g, J->sigma, J->zone, s);
         s[2 * n].a = 0.0; s[2 * n].b = 1.0; s[2 * n].lo = -V_BOX; s[2 * n].hi = V_BOX;
         double x_lo = 0.0, x_hi = J->x_upper[i];
-        for (int j = 0; j < m; j++) {
-            double a1 = s[j].a, b1 = s[j].b, lo1 = s[j].lo, hi1 = s[j].hi;
-            for (int k = j + 1; k < m; k++) {
-                double a2 = s[k].a, b2 = s[k].b, lo2 = s[k].lo, hi2 = s[k].hi;
-                double det = a1 * b2 - a2 * b1;
-                double r1 = (lo1 * b2 - hi2 * b1) / det;
-                double r2 = (hi1 * b2 - lo2 * b1) / det;
-                int pos = det >= 0;
-                x_lo = mx(x_lo, sel(pos, r1, r2));
-                x_hi = mn(x_hi, sel(pos, r2, r1));
-            }
-        }
+        for (int j = 0; j < m; j++)
+            for (int k = j + 1; k < m; k++) pair(s[j], s[k], &x_lo, &x_hi);
         J->pre_lo[i] = x_lo;
         J->pre_hi[i] = x_hi;
     }
@@ -154,17 +154,9 @@ int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta
     for (int i = top; i >= 0; i--) {
         double delta = interval(n, i, alpha, beta, g, sigma, zone, s);
         s[2 * n].a = 0.0; s[2 * n].b = 1.0; s[2 * n].lo = -V_BOX; s[2 * n].hi = V_BOX;
-        double a2 = 1.0, b2 = delta, lo2 = k_lo, hi2 = k_hi;
+        slab next = {1.0, delta, k_lo, k_hi};
         double x_lo = pre[i], x_hi = pre[count + i];
-        for (int j = 0; j < m - 1; j++) {
-            double a1 = s[j].a, b1 = s[j].b, lo1 = s[j].lo, hi1 = s[j].hi;
-            double det = a1 * b2 - a2 * b1;
-            double r1 = (lo1 * b2 - hi2 * b1) / det;
-            double r2 = (hi1 * b2 - lo2 * b1) / det;
-            int pos = det >= 0;
-            x_lo = mx(x_lo, sel(pos, r1, r2));
-            x_hi = mn(x_hi, sel(pos, r2, r1));
-        }
+        for (int j = 0; j < m - 1; j++) pair(s[j], next, &x_lo, &x_hi);
         x_hi = mx(x_hi, -BIG);
         out_empty[i] = x_lo > x_hi + TOL * (1.0 + fabs(x_hi)) ? 1.0 : 0.0;
         k_lo = mx(mn(x_lo, x_hi), 0.0);

@@ -241,29 +241,35 @@ def prefetch() -> None:
     :mod:`.native` and the step peaks of :mod:`.native_peaks` (about 0.2 s each, once per
     machine; they serve every row count; the first scaling waits for the thread, the peaks
     are used after it). A no-op when they are cached or being built, or without a compiler."""
-    if _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
-        return  # being built, loaded, or no compiler
-    if all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS) for m in (native, native_peaks)):
-        return  # on disk: loaded at first use (a thread costs more than the load)
-
-    def build() -> None:
-        native.kernels()
-        native_peaks.peaks()
-
-    thread = threading.Thread(target=build, daemon=True)
+    if not _missing() or _on_disk():  # on disk: loaded at first use or by :func:`load`
+        return
+    thread = threading.Thread(target=_load_both, daemon=True)
     thread.start()
     _PENDING.append(thread)
+
+
+def _missing() -> bool:
+    """Not loaded, not being built, and a compiler to build them."""
+    return not (_PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None)
+
+
+def _on_disk() -> bool:
+    return all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS)
+               for m in (native, native_peaks))  # fmt: skip
+
+
+def _load_both() -> None:
+    """Build or load both libraries (lru_cached by their modules)."""
+    native.kernels()
+    native_peaks.peaks()
 
 
 def load() -> None:
     """Load the C loops when they are on disk (a caller with idle time: the rollout waiting
     for its compiled chunks, :mod:`mmplan.planners.extended_jacobian.prefetch`); else leave
     them to :func:`prefetch` or the first scaling."""
-    if _PENDING or native.kernels.cache_info().currsize or codegen.compiler() is None:
-        return
-    if all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS) for m in (native, native_peaks)):
-        native.kernels()
-        native_peaks.peaks()
+    if _missing() and _on_disk():
+        _load_both()
 
 
 def _native() -> native.Kernels | None:
