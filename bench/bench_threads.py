@@ -68,9 +68,8 @@ def main() -> None:
     fns = planner._prepare(problem).fns  # type: ignore[attr-defined]
     assert isinstance(fns, GeneratorFunctions) and fns.native_chunk is not None
     spec = fns._speculate()
-    spec.follow_load = False
+    spec.switch(True)
     assert spec.enabled, "no guesses: one core, or the thread helper is missing"
-    job = spec._job
     data = _rows(planner, problem)
     path = codegen.compile_source(native.SOURCE, native.PREFIX, native.FLAGS)
     assert path is not None
@@ -87,13 +86,11 @@ def main() -> None:
             times: dict[bool, list[float]] = {True: [], False: []}
             for i in range(2 * args.plans):
                 on = i % 2 == 0
-                spec.settle()
-                spec._wanted = on
-                spec._job = job if on else None
+                spec.switch(on)
                 start = time.perf_counter()
                 planner.plan(problem)
                 times[on].append(time.perf_counter() - start)
-            spec._wanted = True
+            spec.switch(True)
             bw: dict[str, list[float]] = {"two threads": [], "one thread": []}
             for _ in range(40):
                 for name, kernels in (("two threads", shipped), ("one thread", single)):

@@ -79,11 +79,13 @@ def run(
     clock: StallClock,
     rows: SampleLog,
     wants_switch: Callable[[Array, float, Array], bool] | None,
+    steps: int,
 ) -> Chunk:
     """Run one chunk from sample k (virtual control u so far); append accepted samples to rows.
 
     ``wants_switch(q, cond(E), E)``: a partition switch is wanted at the chunk's start (the loop
-    then decides that sample; None: no switch possible).
+    then decides that sample; None: no switch possible). ``steps``: the run's last sample (the
+    next chunk is guessed only when it may run, :func:`usable`).
     """
     n, a, dt = fns.n, fns.n_act, opt.dt
     if opt.torque_control:
@@ -94,7 +96,7 @@ def run(
         X, R, us, ss, ok = XU[:, : 2 * n], RU, RU[:, n + a + 2], RU[:, n + a + 3], RU[:, -1]
     else:
         # the chunk after this one, if it may run, starts on a second core meanwhile
-        guess = k + 2 * fns.chunk_steps <= int(np.ceil(opt.t_max / dt))
+        guess = k + 2 * fns.chunk_steps <= steps
         X, R = fns.run_chunk(q, dq, 1.0, 1.0, np.zeros(n), p, dt, guess_next=guess)
         us = ss = ok = np.ones(len(R))
     ddq, tau, err, flag = R[:, :n], R[:, n : n + a], R[:, n + a], R[:, n + a + 1]

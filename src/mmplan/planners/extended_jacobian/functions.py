@@ -88,7 +88,6 @@ class GeneratorFunctions:
     native_chunk: Any = None  # cg.NativeFunction of chunk_flat (step.build_chunk_flat)
     native_ee: Any = None  # cg.NativeFunction of ee_flat (step.build_ee_flat)
     _last: Array | None = None
-    _speculation: Speculation | None = None  # the native chunk's calls (prefetch.py)
     cache: dict[str, Any] = field(default_factory=dict)  # functions built later (torque.feedback)
     #: Where goal, gains, floor, obstacle slots and partition lie in p (parameters.py).
     layout: ParameterLayout = field(default_factory=ParameterLayout)
@@ -198,9 +197,8 @@ class GeneratorFunctions:
         self._speculate().guess(np.concatenate([q, np.zeros(n), par]), replace=True)
 
     def _speculate(self) -> Speculation:
-        if self._speculation is None:
-            self._speculation = speculation_of(self.native_chunk)
-        return self._speculation
+        """The native chunk's calls (prefetch.py; kept on the compiled function)."""
+        return speculation_of(self.native_chunk)
 
     def _native_call(self, x: Array, guess_next: bool = False) -> Array:
         self._last = y = self._speculate().call(x)

@@ -84,6 +84,13 @@ class Speculation:
         if getattr(self, "_guess", None) is not None:
             self._settle(None, idle=False)
 
+    def switch(self, on: bool) -> None:
+        """Guess (whatever the load) or not, from now on (benches, tests)."""
+        self.settle()
+        self._wanted, self.follow_load = on, False
+        if not on:
+            self._job = None
+
     @property
     def enabled(self) -> bool:
         """Guesses are made (wanted, and the thread helper is loaded)."""

@@ -148,7 +148,7 @@ def rollout(
             clock = ej_fastpath.StallClock(window, escapes, escape_until)
             can_switch = switch is not None and switches < opt.max_switches
             wants = switch.wants if switch is not None and can_switch else None
-            c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, wants)
+            c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, wants, steps)
             if c.m:
                 max_cond, q, dq, u, k = max(max_cond, c.cond), c.q, c.dq, c.u, k + c.m - 1
                 s_min, chunked = min(s_min, c.s_min), chunked + c.m
