@@ -67,6 +67,9 @@ def test_units_compute_what_the_one_file_build_computes(tmp_path: Path) -> None:
         lib = ctypes.CDLL(str(library))
         assert hasattr(lib, "mmplan_t_h") and hasattr(lib, "mmplan_gen_casadi_int_size")
         assert not hasattr(lib, "mmplan_gen_f0")  # the generated functions stay internal
+        # CasADi's helpers are static in a cut source (inlined, not called through the PLT)
+        assert hasattr(lib, "mmplan_gen_sq") == (library == one)
+    assert "static casadi_real casadi_sq(" in split(source, 1)[0].text  # also left whole
 
 
 def test_no_fused_multiply_add_even_for_the_native_architecture(cache: Path) -> None:
@@ -116,5 +119,11 @@ def test_other_c_is_left_whole() -> None:
     source = cg._source(_functions())
     guarded = source.replace("static int casadi_f1(", "#if 1\nstatic int casadi_f1(", 1)
     guarded = guarded.replace("\n/* mmplan_t_h", "#endif\n/* mmplan_t_h", 1)
-    assert split(guarded, 2) == [Unit(guarded)]  # a function inside an #if block: not moved
+    (whole,) = split(guarded, 2)  # a function inside an #if block: nothing moved, ...
+    local = ("casadi_real casadi_sq(", "void casadi_copy(")
+    made_static = guarded
+    for head in local:  # ... only CasADi's helpers made static
+        assert f"static {head}" not in guarded
+        made_static = made_static.replace(head, f"static {head}", 1)
+    assert whole == Unit(made_static)
     assert split(source[:-200], 2) == [Unit(source[:-200])]  # unbalanced: not C to cut

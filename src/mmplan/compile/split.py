@@ -4,12 +4,13 @@ gcc spends about 7 us per byte of the generated code (youbot-3r's generator: 677
 -O2) and uses one core; the file is a preamble (macros, sparsity patterns, small helpers)
 followed by one ``static int casadi_fN(...)`` per CasADi function and the exported API.
 :func:`split` cuts it at the top level: each unit gets the preamble's macros and constant data
-and a prototype of every function, the functions are dealt out by size, the helpers and the
-exported API go to the first unit; the functions that only rarely called entry points reach
+and a prototype of every function, the functions are dealt out by size, the exported API goes
+to the first unit and CasADi's small helpers (``casadi_sq``, ...) become static copies in every
+unit (:func:`_local`: inlined, not called); the functions that only rarely called entry points reach
 (``cold``, found through the calls in the code) get a unit of their own, which the caller
 compiles without optimisation. The generated functions lose ``static`` (they are called
-across units) and become hidden, so the linked library exports exactly what the one-file
-build exports. The numbers stay those of the one-file build only without fused
+across units) and become hidden, so the linked library exports what the one-file build
+exports (less the helpers). The numbers stay those of the one-file build only without fused
 multiply-adds (:data:`mmplan.compile.codegen.FIXED_FLAGS`): gcc fuses across the calls it
 inlines, and what it inlines depends on the unit.
 """
@@ -24,6 +25,8 @@ from dataclasses import dataclass
 _WORKER = re.compile(r"static int (casadi_f\d+)\(")
 _CALL = re.compile(r"\b(casadi_f\d+)\(")
 _HIDDEN = '__attribute__((visibility("hidden"))) int'
+#: A name CasADi's source renames (``#define casadi_sq CASADI_PREFIX(sq)``).
+_PREFIXED = re.compile(r"#define (\w+) CASADI_PREFIX\(")
 #: What :func:`items` stops at inside an item, outside and inside braces.
 _TOP = re.compile(r"/\*|//|[\"'{};]")
 _NESTED = re.compile(r"/\*|//|[\"'{}]")
@@ -104,6 +107,27 @@ class Unit:
     cold: bool = False
 
 
+def _helper(text: str, renamed: set[str]) -> bool:
+    """True for a non-static function whose name CasADi renames by ``CASADI_PREFIX`` (its
+    small helpers: ``casadi_sq``, ``casadi_fmax``, ``casadi_copy``, ...)."""
+    head = text[: text.index("{")]
+    return not head.lstrip().startswith("static") and _name(head) in renamed
+
+
+def _local(src: str, helpers: Sequence[str]) -> str:
+    """``src`` with the ``helpers`` made ``static``.
+
+    CasADi writes its helpers as global functions. In a shared library built with -fPIC a
+    global function may be replaced at load time (semantic interposition), so gcc calls it
+    through the procedure linkage table and never inlines it: on youBot-3r's generator
+    casadi_sq, casadi_fmax, casadi_fabs and casadi_copy took about 10 % of a chunk's time
+    as calls (perf). Static, they are inlined; the numbers are the same (no fused
+    multiply-adds, :data:`mmplan.compile.codegen.FIXED_FLAGS`)."""
+    for text in helpers:
+        src = src.replace(text, f"static {text}", 1)
+    return src
+
+
 def _name(head: str) -> str:
     return head[: head.index("(")].split()[-1]
 
@@ -125,11 +149,13 @@ def split(src: str, parts: int, cold: Sequence[str] = ()) -> list[Unit]:
     reach. One unit, ``src`` itself, when there is nothing to cut: ``parts`` is 1 and no
     function is cold, at most one generated function, or a function inside an ``#if``
     block."""
-    whole = [Unit(src)]
     try:
         top = items(src)
     except (ValueError, IndexError):  # unbalanced, unterminated: not CasADi's C
-        return whole
+        return [Unit(src)]
+    renamed = set(_PREFIXED.findall(src))
+    helpers = [t for k, t in top if k == "func" and _helper(t, renamed)]
+    whole = [Unit(_local(src, helpers))]
     common: list[str] = []  # macros and static data: every unit
     protos: list[str] = []
     workers: dict[str, str] = {}
@@ -151,6 +177,8 @@ def split(src: str, parts: int, cold: Sequence[str] = ()) -> list[Unit]:
                 protos.append(f"{head};")
             elif head.startswith("static"):  # a file-local helper: a copy in every unit
                 common.append(text)
+            elif text in helpers:  # CasADi's helper (casadi_sq, ...): the same, made static
+                common.append(f"static {text}")
             else:
                 first.append(text)
                 protos.append(f"{head};")
