@@ -128,6 +128,37 @@ def test_box_gap_is_a_lower_bound_of_the_radial_distance(
             assert float(gap(point)) == pytest.approx(_box_gap(model, point), abs=1e-14)
 
 
+def test_the_culling_test_holds_wherever_the_box_gap_is_within_reach(
+    setup: Setup, rng: np.random.Generator
+) -> None:
+    """SlotTerm.within (squared, no square root, the excess clipped by a comparison) says 1
+    wherever the box gap (NumPy, with a square root) is below reach + delta, also on points
+    placed at that distance to the last bit, and 0 clearly beyond it (it culls)."""
+    models = [_model(ob) for ob in setup[1]]
+    models.append(SuperellipsoidModel((0.2, -0.1, 0.5), (0.3, 0.5, 0.2), (2.0, 2.0), -1.1))
+    layout = ParameterLayout(slots_for([m.exponents for m in models]))
+    point, ps = ca.SX.sym("x", 3), ca.SX.sym("p", layout.size)
+    terms = slot_terms(setup[0], layout)[1:]  # without the floor
+    reach, delta = 0.13, 0.3
+    for m in models:
+        p = layout.pack(np.zeros(3), (1.0, 1.0, 1.0), [(m, delta)])
+        at = next(t for t in terms if t.exponents == m.exponents and p[t.offset] != 1e3)
+        fn = ca.Function("near", [point, ps], [at.within(point, at.numbers(ps), reach)])
+        axes, centre = np.asarray(m.semi_axes), np.asarray(m.center)
+        pts = centre + rng.uniform(-1, 1, (600, 3)) * (axes.max() + 0.8)
+        c, s = np.cos(m.yaw), np.sin(m.yaw)
+        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        for k in range(3):  # on each axis, at the bound and one ulp either side
+            at_bound = axes[k] + reach + delta
+            for d in (np.nextafter(at_bound, 0.0), at_bound, np.nextafter(at_bound, 9.0)):
+                pts = np.vstack([pts, centre + rot @ (np.eye(3)[k] * d)])
+        near = np.asarray(fn.map(len(pts))(pts.T, p)).ravel()
+        gaps = np.array([_box_gap(m, x) for x in pts])
+        assert np.all(near[gaps < reach + delta] == 1.0)
+        assert np.all(near[gaps > (reach + delta) * (1.0 + 1e-9)] == 0.0)
+        assert 0.1 < np.mean(near) < 0.9  # not vacuous
+
+
 def test_culled_obstacle_terms_equal_the_full_sum(setup: Setup, rng: np.random.Generator) -> None:
     robot, obstacles, _ = setup
     s, n = robot.symbols, robot.n

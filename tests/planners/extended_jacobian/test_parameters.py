@@ -62,7 +62,7 @@ def test_slot_gap_is_the_models_radial_distance(rng: np.random.Generator) -> Non
         pts = np.asarray(m.center) + rng.uniform(-1.0, 1.0, (200, 3))
         got = np.asarray(fn.map(200)(pts.T, p)).ravel()
         np.testing.assert_allclose(got, m.radial_distance(pts), rtol=1e-9, atol=1e-12)
-        p[at.offset : at.offset + 8] = (1e3, 1e3, 1e3, 1, 1, 1, 0, 0)  # next one: another slot
+        p[at.offset : at.offset + 9] = (1e3, 1e3, 1e3, 1, 1, 1, 1, 0, 0)  # next: another slot
 
 
 def test_pack_parks_free_slots_and_refuses_too_many(robot: Robot) -> None:
@@ -173,4 +173,4 @@ def test_paper_plans_keep_clear_of_the_floor(name: str) -> None:
 
 
 def test_slot_term_sizes() -> None:
-    assert SlotTerm(None, 6).size == 2 and SlotTerm((1.0, 1.0), 8).size == 8
+    assert SlotTerm(None, 6).size == 2 and SlotTerm((1.0, 1.0), 8).size == 9

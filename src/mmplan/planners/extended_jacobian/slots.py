@@ -7,8 +7,8 @@ kappa = ((delta - C)/C)^2 for C < delta, with its numbers in p
 * a superellipsoid slot: C the radial distance of the sphere centre to the (enlarged) model
   minus the sphere radius, the same operations as
   :meth:`mmplan.scene.smooth_model.SuperellipsoidModel.radial_distance_sym` with centre,
-  semi-axes and yaw as symbols (the exponents, fixed per slot, keep the powers as
-  multiplications);
+  semi-axes and the yaw's cosine and sine as symbols (the exponents, fixed per slot, keep the
+  powers as multiplications);
 * the floor z = h: C = z - r - h over the spheres whose height depends on q
   (:func:`mmplan.robot.ground.ground_sphere_indices`), a half-space with the same kappa.
 
@@ -58,7 +58,7 @@ class SlotTerm:
         return prm[self.size - 1]
 
     def _local(self, point: ca.SX, prm: ca.SX) -> ca.SX:
-        c, s = ca.cos(prm[6]), ca.sin(prm[6])
+        c, s = prm[6], prm[7]  # cos and sin of the yaw (parameters.py)
         d = point - prm[:3]
         return ca.vertcat(c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2])
 
@@ -85,6 +85,23 @@ class SlotTerm:
             return point[2] - prm[0]
         out = ca.fmax(ca.fabs(self._local(point, prm)) - prm[3:6], 0.0)
         return ca.sqrt(ca.sumsqr(out))
+
+    def within(self, point: ca.SX, prm: ca.SX, reach: float) -> ca.SX:
+        """1 where the point may lie within ``reach`` + delta of the term, else 0: true
+        wherever ``box_gap(point) < reach + delta`` is (and a hair beyond).
+
+        Compared squared (no square root), the box's excess clipped at 0 by a comparison
+        (gcc inlines it; ``fmax`` is a libm call): the culling test runs five times a step
+        for every (point group, term) pair. The relative slack 1e-12 covers the rounding
+        of the square root and the squares, so the test never says 0 where the distance's
+        form says 1; where it says 1 for a far group, the block adds exact zeros.
+        """
+        bound = reach + self.influence(prm)
+        if self.exponents is None:
+            return point[2] - prm[0] < bound
+        excess = ca.fabs(self._local(point, prm)) - prm[3:6]
+        clipped = ca.if_else(excess > 0.0, excess, 0.0)
+        return ca.sumsqr(clipped) < bound * bound * (1.0 + 1e-12)
 
     def kappa(self, point: ca.SX, radius: ca.SX, prm: ca.SX) -> ca.SX:
         """((delta - C)/C)^2 for C < delta, else 0, with C = max(gap - radius, C_FLOOR)."""
