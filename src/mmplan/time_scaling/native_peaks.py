@@ -6,8 +6,9 @@ at the ends and the vertex of its quadratic, |ddq_j| at the ends, a planar speed
 its interior maximum, a planar acceleration norm at the ends). In NumPy that is some 60 array
 operations a call, 1.0 ms on a 607-sample youbot-3r plan and five calls a plan; here one pass
 over the steps (measured 0.11 ms a call on youbot3r-obstacles-torque's 11 quantities at -O3
--march=native, 0.13 ms at -O2; the planar speeds' interior search dominates). The arithmetic is :mod:`mmplan.interpolant`'s, operation for
-operation (the planar interior by the same polynomial coefficients, sub-samples and bisection),
+-march=native, 0.13 ms at -O2; the planar speeds' interior search dominates). The arithmetic
+is :mod:`mmplan.interpolant`'s, operation for operation (the planar interior by the same
+polynomial coefficients, sub-samples and bisection),
 so the values agree with it (tests/time_scaling/test_native_peaks.py: to 1e-15 relative; equal
 in almost every entry). NumPy's is the specification and the fallback without a compiler.
 """

@@ -135,6 +135,13 @@ def conditional(
     return out
 
 
+def _keep(fn: ca.Function) -> ca.Function:
+    """(.., acc) -> acc: the far branch of a block that adds its terms to acc (its last
+    input)."""
+    ins = fn.mx_in()
+    return ca.Function(fn.name() + "_keep", ins, [ins[-1]])
+
+
 def point_groups(robot: Robot, size: int = GROUP_SIZE) -> list[list[int]]:
     """Collision points grouped per body, each body's points split by recursive bisection
     along their longest extent (body frame) into groups of at most ``size``."""
@@ -216,9 +223,8 @@ def obstacle_functions(
             prm = t.numbers(ps)
             tests.append(t.within(centre, prm, radius))
             blocks.append((g, idx, t))
-    S_total: ca.MX = ca.MX(0)
+    total: ca.MX = ca.MX.zeros(n + 1)  # [S; dK/dq] summed over the blocks
     S_only: ca.MX = ca.MX(0)
-    grad: ca.MX = ca.MX.zeros(n)
     if blocks:
         near = ca.Function("mmplan_obstacles_near", [q, ps], ca.cse([ca.vertcat(*tests)]))(qm, pm)
     # one block function per (group, shape type), called for every slot of that type: the
@@ -229,17 +235,20 @@ def obstacle_functions(
             prm = ca.SX.sym("prm", t.size)
             K = slot_penalty(points[:, idx], radii[idx], [SlotTerm(t.exponents, 0)], prm)
             name = f"mmplan_obst_g{g}_s{len(made)}"
+            acc, acc_k = ca.SX.sym("acc", n + 1), ca.SX.sym("acc_k")
             made[g, t.exponents] = (
-                ca.Function(name, [q, prm], ca.cse([ca.vertcat(K, ca.gradient(K, q))])),
-                ca.Function(name + "_k", [q, prm], ca.cse([K])),
+                ca.Function(name, [q, prm, acc], ca.cse([acc + ca.vertcat(K, ca.gradient(K, q))])),
+                ca.Function(name + "_k", [q, prm, acc_k], ca.cse([acc_k + K])),
             )
         block, value = made[g, t.exponents]
         name = f"mmplan_obst_g{g}_t{b}"
         args = [qm, t.numbers(pm)]
-        out = conditional(name + "_if", near[b], block, args)
-        S_total += out[0]
-        grad += out[1:]
-        S_only += conditional(name + "_k_if", near[b], value, args)
+        # the sums run through the blocks: a far block passes them on (one copy), where a
+        # block of zeros cost a copy of its zeros, a slice and a sum (the chunk 0.87 of
+        # that code's time, paired; the same values: acc + 0 is acc)
+        total = conditional(name + "_if", near[b], block, [*args, total], _keep(block))
+        S_only = conditional(name + "_k_if", near[b], value, [*args, S_only], _keep(value))
+    S_total, grad = total[0], total[1:]
     # The push P (-varrho G dK/dq), as ``finish`` changes it, only when some block is near.
     grad_s = ca.SX.sym("grad", n)
     raw = ca.Function(
