@@ -257,15 +257,17 @@ int mmplan_topp_forward(int n, int N, const double *alpha, const double *beta,
 }
 """
 
-_DBL = ctypes.POINTER(ctypes.c_double)
-
-
 class Kernels:
     """The compiled passes of one loaded library (:func:`kernels`)."""
 
     def __init__(self, lib: ctypes.CDLL) -> None:
         self._bw, self._fw = lib.mmplan_topp_backward, lib.mmplan_topp_forward
         self._bw.restype = self._fw.restype = ctypes.c_int
+        # declared arguments: arrays go in as their addresses (ints), without a ctypes
+        # pointer object each (72 a plan: ~0.2 ms of the time scaling, measured)
+        i, d, p = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
+        self._bw.argtypes = [i, i, p, p, p, p, p, p, d, d, p, p, p, i]
+        self._fw.argtypes = [i, i, p, p, p, p, p, p, p, p, d, p]
         #: Split the backward pass's fixed pairs over two threads when a core is idle.
         self.split = True
 
@@ -278,10 +280,10 @@ class Kernels:
         n = alpha.shape[1]
         out = np.empty((3, top + 1))
         arrays = _contiguous(alpha, beta, g, sigma, x_upper, zone)  # alive during the call
-        split = ctypes.c_int(1 if self.split and threads.idle_core() else 0)
-        status = self._bw(ctypes.c_int(n), ctypes.c_int(top), *[_ptr(a) for a in arrays],
-                          ctypes.c_double(last[0]), ctypes.c_double(last[1]),
-                          _ptr(out[0]), _ptr(out[1]), _ptr(out[2]), split)  # fmt: skip
+        split = 1 if self.split and threads.idle_core() else 0
+        base, row = out.ctypes.data, out.strides[0]
+        status = self._bw(n, top, *[a.ctypes.data for a in arrays], last[0], last[1],
+                          base, base + row, base + 2 * row, split)  # fmt: skip
         if status != 0:
             raise MemoryError("time scaling: no memory for the backward pass")
         return out[0], out[1], out[2]
@@ -294,8 +296,7 @@ class Kernels:
         N, n = alpha.shape
         x = np.empty(max(N - 1, 0))
         arrays = _contiguous(alpha, beta, g, sigma, x_upper, zone, K_lo, K_hi)
-        status = self._fw(ctypes.c_int(n), ctypes.c_int(N), *[_ptr(a) for a in arrays],
-                          ctypes.c_double(x_start), _ptr(x))  # fmt: skip
+        status = self._fw(n, N, *[a.ctypes.data for a in arrays], x_start, x.ctypes.data)
         if status != 0:
             raise MemoryError("time scaling: no memory for the forward pass")
         return x
@@ -303,10 +304,6 @@ class Kernels:
 
 def _contiguous(*arrays: Array) -> list[Array]:
     return [np.ascontiguousarray(a, dtype=np.float64) for a in arrays]
-
-
-def _ptr(a: Array) -> ctypes._Pointer[ctypes.c_double]:
-    return a.ctypes.data_as(_DBL)
 
 
 @lru_cache(maxsize=1)

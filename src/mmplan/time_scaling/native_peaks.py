@@ -130,16 +130,14 @@ void mmplan_interval_peaks(int N, int n, const double *t, const double *q, const
 SOURCE = SOURCE.replace("@SUB@", str(interpolant.SPEED_SUBSAMPLES))
 SOURCE = SOURCE.replace("@BISECT@", str(interpolant._BISECTIONS))
 
-_DBL = ctypes.POINTER(ctypes.c_double)
-_INT = ctypes.POINTER(ctypes.c_int)
-
-
 class Peaks:
     """:func:`interval_ratios` of one compiled library (:func:`peaks`)."""
 
     def __init__(self, lib: ctypes.CDLL) -> None:
         self._fn = lib.mmplan_interval_peaks
         self._fn.restype = None
+        i, p = ctypes.c_int, ctypes.c_void_p  # arrays by address
+        self._fn.argtypes = [i, i, p, p, p, i, p, p, p, p, p]
 
     def __call__(
         self, t: Array, q: Array, dq: Array, kind: Array, j1: Array, j2: Array, limit: Array
@@ -152,9 +150,8 @@ class Peaks:
         N, n = q.shape
         m = len(limit)
         out = np.empty((max(N - 1, 0), m))
-        self._fn(ctypes.c_int(N), ctypes.c_int(n), *[a.ctypes.data_as(_DBL) for a in (t, q, dq)],
-                 ctypes.c_int(m), *[a.ctypes.data_as(_INT) for a in ints],
-                 limit.ctypes.data_as(_DBL), out.ctypes.data_as(_DBL))  # fmt: skip
+        self._fn(N, n, t.ctypes.data, q.ctypes.data, dq.ctypes.data, m,
+                 *[a.ctypes.data for a in ints], limit.ctypes.data, out.ctypes.data)
         return out
 
 

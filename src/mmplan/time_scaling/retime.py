@@ -89,6 +89,9 @@ def retime_path(
     # controllable sets after it are those of the round before (:func:`.topp.scaling_with_sets`).
     reuse: tuple[Array, Array, int] | None = None
     previous_peaks: Array | None = None
+    if rr is not None:  # the rows the rounds do not tighten
+        g_all = np.hstack([extra[2], rr.g])
+        lo_all, hi_all = np.concatenate([extra[3], rr.lo]), np.concatenate([extra[4], rr.hi])
     while True:
         rounds += 1
         if rr is None:
@@ -96,8 +99,7 @@ def retime_path(
         else:
             sc, k_lo, k_hi = scaling_with_sets(
                 sigma, np.hstack([extra[0], rr.alpha * tight]),
-                np.hstack([extra[1], rr.beta * tight]), np.hstack([extra[2], rr.g]),
-                np.concatenate([extra[3], rr.lo]), np.concatenate([extra[4], rr.hi]),
+                np.hstack([extra[1], rr.beta * tight]), g_all, lo_all, hi_all,
                 w_max=w_max, x_upper=np.minimum(rr.x_upper, w_max**2) * x_cap, x_start=x_start,
                 reuse=reuse,
             )  # fmt: skip
