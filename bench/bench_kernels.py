@@ -117,7 +117,7 @@ def chunks(against: str, scenario: str, repeat: int) -> None:
                 ys.append(fn().copy())
             outs.append(np.array(ys))
         if outs[0].shape == outs[1].shape:
-            same = np.array_equal(outs[0], outs[1], equal_nan=True)
+            same = np.array_equal(outs[0].view(np.uint64), outs[1].view(np.uint64))
             worst = float(np.nanmax(np.abs(outs[0] - outs[1])))
             agree = "the same outputs to the bit" if same else f"outputs differ by {worst:.1e}"
     ta, tb = _paired(run(fa, xa), run(fb, xb), repeat)
@@ -159,10 +159,12 @@ def passes(against: str, scenario: str, repeat: int) -> None:
         print("passes: no compiled passes (no compiler?)")
         return
     for kind, args in calls.items():
+
         def go(k: Any, kind: str = kind, args: list[tuple[Any, ...]] = args) -> Callable[[], Any]:
             return lambda: [getattr(k, kind)(*a) for a in args]
 
-        bits = all(np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
+        bits = all(np.array_equal(np.asarray(x, dtype=float).view(np.uint64),
+                                  np.asarray(y, dtype=float).view(np.uint64))
                    for a in args for x, y in zip(np.atleast_2d(getattr(new, kind)(*a)),
                                                  np.atleast_2d(getattr(other, kind)(*a)),
                                                  strict=True))  # fmt: skip

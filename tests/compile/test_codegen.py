@@ -53,3 +53,17 @@ def test_native_call_equals_the_casadi_call(cache: Path) -> None:
         x = rng.normal(size=3)
         native.x[:] = x
         np.testing.assert_array_equal(native().copy(), np.asarray(_function()(x)).ravel())
+
+
+def test_a_library_for_the_native_cpu_is_keyed_by_the_cpu(
+    cache: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A shared cache folder must not hand one CPU's -march=native code to another: the host
+    is in the key of such a library only."""
+    source = "int mmplan_t_one(void) { return 1; }\n"
+    native, plain = ("-O2", "-march=native"), ("-O2",)
+    here = cg._library(source, "t", native), cg._library(source, "t", plain)
+    monkeypatch.setattr(cg, "host", lambda: "another-cpu")
+    assert cg._library(source, "t", native) != here[0]
+    assert cg._library(source, "t", plain) == here[1]
+    assert cg.native_flags(native) and not cg.native_flags(plain)

@@ -73,8 +73,41 @@ def _source(functions: Sequence[ca.Function]) -> str:
 
 
 def _library(source: str, prefix: str, flags: Sequence[str]) -> Path:
-    key = "\n".join([source, *flags, *FIXED_FLAGS, ca.CasadiMeta.version()])
+    parts = [source, *flags, *FIXED_FLAGS, ca.CasadiMeta.version()]
+    if native_flags(flags):
+        parts.append(host())
+    key = "\n".join(parts)
     return cache_dir() / f"{prefix}_{hashlib.sha256(key.encode()).hexdigest()[:20]}.so"
+
+
+def native_flags(flags: Sequence[str]) -> bool:
+    """The flags compile for this machine's CPU (-march=native and the like)."""
+    return any(f.endswith("=native") for f in flags)
+
+
+@lru_cache(maxsize=1)
+def host() -> str:
+    """What -march=native compiles for, as a short hash: the first processor's model and
+    feature flags (Linux: /proc/cpuinfo) and the platform's machine and processor names. In
+    the key of every library built for the native CPU, so that a cache folder shared between
+    machines (``$MMPLAN_CACHE`` on a network home) never hands one CPU's instructions to
+    another (an illegal instruction kills the process; a missing key only costs a build)."""
+    import platform
+
+    wanted = ("model name", "flags", "Features", "CPU implementer", "CPU part")
+    found: dict[str, str] = {}
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as info:
+            for line in info:
+                name = line.split(":", 1)[0].strip()
+                if name in wanted and name not in found:
+                    found[name] = line.strip()
+                if not line.strip() and found:  # the first processor's block is enough
+                    break
+    except OSError:
+        pass
+    text = "\n".join([platform.machine(), platform.processor(), *sorted(found.values())])
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def is_cached(functions: Sequence[ca.Function], prefix: str, flags: Sequence[str]) -> bool:
@@ -195,23 +228,42 @@ def compile_source(source: str, prefix: str, flags: Sequence[str] = ("-O2",)) ->
 
 
 def load_source(
-    source: str, prefix: str, flags: Sequence[str], make: Callable[[ctypes.CDLL], T]
+    source: str,
+    prefix: str,
+    flags: Sequence[str],
+    make: Callable[[ctypes.CDLL], T],
+    fallback: Sequence[str] | None = None,
 ) -> T | None:
     """``make(library)`` of :func:`compile_source`'s library of ``source``, loaded with
     ctypes; None without a compiler, when the build fails or when the cached file does not
-    load here (another machine's, damaged, a missing symbol): the caller keeps its fallback."""
-    path = compile_source(source, prefix, flags)
-    if path is None:
-        return None
-    try:
-        return make(ctypes.CDLL(path))
-    except (OSError, AttributeError):
-        return None
+    load here (damaged, a missing symbol): the caller keeps its fallback.
+
+    ``fallback``: plainer flags for a compiler that rejects one of ``flags`` (e.g. gcc's
+    -fvect-cost-model elsewhere): a library built with them on an earlier run is taken as it
+    is, without trying ``flags`` again."""
+    sets = [tuple(flags)]
+    if fallback is not None and tuple(fallback) != sets[0]:
+        sets.append(tuple(fallback))
+    cached = [f for f in sets if _library(source, prefix, f).exists()]
+    for f in cached or sets:
+        path = compile_source(source, prefix, f)
+        if path is None:
+            continue
+        try:
+            return make(ctypes.CDLL(path))
+        except (OSError, AttributeError):
+            continue
+    return None
 
 
-def source_is_cached(source: str, prefix: str, flags: Sequence[str] = ("-O2",)) -> bool:
-    """True when :func:`compile_source` would load ``source``'s library without a build."""
-    return _library(source, prefix, flags).exists()
+def source_is_cached(
+    source: str, prefix: str, flags: Sequence[str] = ("-O2",), fallback: Sequence[str] = ()
+) -> bool:
+    """True when :func:`load_source` would load ``source``'s library without a build (with
+    ``flags``, or with ``fallback`` when given)."""
+    return _library(source, prefix, flags).exists() or bool(
+        fallback and _library(source, prefix, fallback).exists()
+    )
 
 
 def start_build(

@@ -21,9 +21,11 @@ the 2 n + 1 pairs with the slab of K_{i+1}. The first group runs for all interva
 the recursion, split between two threads on paths of 64 intervals or more while a core is
 idle (:func:`mmplan.compile.threads.idle_core`); max and min are exact and drop NaN in any
 order, so the bounds are those of the one loop to the bit (tests). Measured on the paper
-scenario's 606 intervals x 15 rows (``bench/bench_threads.py``, three runs): two threads
-0.64-0.66x the time of one with no other process running, 1.03-1.07x and 2.4-2.8x with one and
-two busy processes (a new thread waits for a time slice), hence the gate.
+scenario's 606 intervals x 15 rows (``bench/bench_threads.py``): two threads 0.64-0.66x the
+time of one with no other process running for the one-pair loop (session 6), 0.85-0.96x for
+the vectorized loop below (session 7: the pass is shorter, the thread's start weighs more);
+1.03-1.12x and 2.4-6x with one and two busy processes (a new thread waits for a time slice),
+hence the gate.
 
 The pairs of an interval's slab j with every later slab run as one loop over arrays that gcc
 vectorizes (``pair_bounds``: -march=native, -fno-trapping-math, without which gcc keeps the
@@ -46,6 +48,8 @@ from mmplan.arrays import Array
 from mmplan.compile import codegen, threads
 
 FLAGS = ("-O2", "-march=native", "-fno-trapping-math", "-fvect-cost-model=dynamic", "-pthread")
+#: For a compiler that rejects one of :data:`FLAGS` (the loops then stay scalar; same bits).
+FALLBACK = ("-O2", "-pthread")
 PREFIX = "topp_native"
 
 SOURCE = r"""
@@ -311,4 +315,4 @@ def _contiguous(*arrays: Array) -> list[Array]:
 def kernels() -> Kernels | None:
     """The compiled passes (built at first use, then loaded from the disk cache); None
     without a compiler or when the build fails (the callers keep the CasADi VM)."""
-    return codegen.load_source(SOURCE, PREFIX, FLAGS, Kernels)
+    return codegen.load_source(SOURCE, PREFIX, FLAGS, Kernels, FALLBACK)

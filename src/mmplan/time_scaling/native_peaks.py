@@ -25,6 +25,8 @@ from mmplan.arrays import Array
 from mmplan.compile import codegen
 
 FLAGS = ("-O3", "-march=native")
+#: For a compiler that rejects one of :data:`FLAGS`.
+FALLBACK = ("-O2",)
 PREFIX = "interval_peaks"
 
 SOURCE = r"""
@@ -130,6 +132,7 @@ void mmplan_interval_peaks(int N, int n, const double *t, const double *q, const
 SOURCE = SOURCE.replace("@SUB@", str(interpolant.SPEED_SUBSAMPLES))
 SOURCE = SOURCE.replace("@BISECT@", str(interpolant._BISECTIONS))
 
+
 class Peaks:
     """:func:`interval_ratios` of one compiled library (:func:`peaks`)."""
 
@@ -150,8 +153,17 @@ class Peaks:
         N, n = q.shape
         m = len(limit)
         out = np.empty((max(N - 1, 0), m))
-        self._fn(N, n, t.ctypes.data, q.ctypes.data, dq.ctypes.data, m,
-                 *[a.ctypes.data for a in ints], limit.ctypes.data, out.ctypes.data)
+        self._fn(
+            N,
+            n,
+            t.ctypes.data,
+            q.ctypes.data,
+            dq.ctypes.data,
+            m,
+            *[a.ctypes.data for a in ints],
+            limit.ctypes.data,
+            out.ctypes.data,
+        )
         return out
 
 
@@ -159,4 +171,4 @@ class Peaks:
 def peaks() -> Peaks | None:
     """The compiled loop (built at first use, then loaded from the disk cache); None without a
     compiler or when the build fails (the caller keeps NumPy)."""
-    return codegen.load_source(SOURCE, PREFIX, FLAGS, Peaks)
+    return codegen.load_source(SOURCE, PREFIX, FLAGS, Peaks, FALLBACK)

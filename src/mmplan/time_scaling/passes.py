@@ -254,7 +254,7 @@ def _missing() -> bool:
 
 
 def _on_disk() -> bool:
-    return all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS)
+    return all(codegen.source_is_cached(m.SOURCE, m.PREFIX, m.FLAGS, m.FALLBACK)
                for m in (native, native_peaks))  # fmt: skip
 
 

@@ -132,10 +132,15 @@ def test_the_culling_test_holds_wherever_the_box_gap_is_within_reach(
     setup: Setup, rng: np.random.Generator
 ) -> None:
     """SlotTerm.within (squared, no square root, the excess clipped by a comparison) says 1
-    wherever the box gap (NumPy, with a square root) is below reach + delta, also on points
-    placed at that distance to the last bit, and 0 clearly beyond it (it culls)."""
+    wherever the box gap (NumPy, with a square root) is below reach + delta and 1e-10 m
+    beyond (a group centre's rounding is ~1e-11 m 1e5 m from the origin: CULL_SLACK covers
+    it), also on points placed at that distance to the last bit and on a scene 1e5 m from the
+    origin, and 0 clearly beyond it (it culls)."""
+    far = np.array([1e5, -1e5, 0.0])
     models = [_model(ob) for ob in setup[1]]
     models.append(SuperellipsoidModel((0.2, -0.1, 0.5), (0.3, 0.5, 0.2), (2.0, 2.0), -1.1))
+    models += [SuperellipsoidModel(tuple(np.asarray(m.center) + far), m.semi_axes, m.exponents,
+                                   m.yaw) for m in models[-2:]]  # fmt: skip
     layout = ParameterLayout(slots_for([m.exponents for m in models]))
     point, ps = ca.SX.sym("x", 3), ca.SX.sym("p", layout.size)
     terms = slot_terms(setup[0], layout)[1:]  # without the floor
@@ -148,14 +153,15 @@ def test_the_culling_test_holds_wherever_the_box_gap_is_within_reach(
         pts = centre + rng.uniform(-1, 1, (600, 3)) * (axes.max() + 0.8)
         c, s = np.cos(m.yaw), np.sin(m.yaw)
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        for k in range(3):  # on each axis, at the bound and one ulp either side
+        for k in range(3):  # on each axis: at the bound, an ulp either side, within the slack
             at_bound = axes[k] + reach + delta
-            for d in (np.nextafter(at_bound, 0.0), at_bound, np.nextafter(at_bound, 9.0)):
+            for d in (np.nextafter(at_bound, 0.0), at_bound, np.nextafter(at_bound, 9.0),
+                      at_bound + 1e-10):  # fmt: skip
                 pts = np.vstack([pts, centre + rot @ (np.eye(3)[k] * d)])
         near = np.asarray(fn.map(len(pts))(pts.T, p)).ravel()
         gaps = np.array([_box_gap(m, x) for x in pts])
-        assert np.all(near[gaps < reach + delta] == 1.0)
-        assert np.all(near[gaps > (reach + delta) * (1.0 + 1e-9)] == 0.0)
+        assert np.all(near[gaps < reach + delta + 1e-10] == 1.0)  # a centre's rounding
+        assert np.all(near[gaps > (reach + delta) * (1.0 + 1e-6)] == 0.0)
         assert 0.1 < np.mean(near) < 0.9  # not vacuous
 
 

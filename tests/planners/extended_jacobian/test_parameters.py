@@ -17,7 +17,7 @@ import mmplan
 from mmplan.planners.extended_jacobian import cache as ej_cache
 from mmplan.planners.extended_jacobian.criterion import Partition, build_criterion
 from mmplan.planners.extended_jacobian.generator import build_functions
-from mmplan.planners.extended_jacobian.parameters import ParameterLayout, slots_for
+from mmplan.planners.extended_jacobian.parameters import SLOT_SIZE, ParameterLayout, slots_for
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
 from mmplan.planners.extended_jacobian.slots import SlotTerm, slot_penalty, slot_terms
 from mmplan.robot.ground import ground_sphere_indices
@@ -76,7 +76,9 @@ def test_pack_parks_free_slots_and_refuses_too_many(robot: Robot) -> None:
     with pytest.raises(ValueError, match="no free slot"):
         layout.pack(np.zeros(3), GAINS, [(box, 0.3)])
     assert layout.accepts([(1.0, 1.0)] * 2) and not layout.accepts([(0.1, 0.1)])
-    assert p[layout.slot_offsets()[1][1] + 7] == 0.0  # parked: delta 0
+    parked = p[layout.slot_offsets()[1][1] :][:SLOT_SIZE]
+    assert parked[-1] == 0.0 and parked[0] == 1e3  # parked: far away, delta 0
+    assert p[layout.slot_offsets()[0][1] + SLOT_SIZE - 1] == 0.3  # the sphere's delta
 
 
 def test_floor_term_against_numpy_and_finite_differences(

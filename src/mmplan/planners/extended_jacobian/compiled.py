@@ -68,6 +68,7 @@ def disk_key(
         repr(None if partition is None else tuple(partition)),
         source_fingerprint(_code_files()),
         repr(CFLAGS),
+        cg.host() if cg.native_flags(CFLAGS) else "",  # -march=native: this CPU's code
     ]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
