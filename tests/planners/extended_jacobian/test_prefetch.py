@@ -219,3 +219,29 @@ def test_each_plan_guesses_its_first_chunk() -> None:
     np.testing.assert_array_equal(spec._guess, first)
     spec.settle()
     spec.follow_load = True
+
+
+def test_ctypes_calls_equal_casadis_calls_of_the_same_library() -> None:
+    """E (sparse output, two inputs), terms_flat and effort through ctypes
+    (GeneratorFunctions._native, no ``casadi.external``) against CasADi's call of the same
+    compiled functions: the same bits, at the samples of a plan and at random states."""
+    planner, fns, problem = _plan_fns("youbot3r-obstacles-torque")
+    assert fns.library
+    prep = planner._prepare(problem)  # type: ignore[attr-defined]
+    p = prep.params
+    rng = np.random.default_rng(9)
+    n = fns.n
+    Q = np.vstack([planner.plan(problem).trajectory.q[::40], rng.normal(size=(8, n))])  # type: ignore[attr-defined]
+    assert fns._native("E").pattern.rows is not None  # E is stored sparse: scattered here
+    for q in Q:
+        dq = rng.normal(size=n)
+        E = fns.E_at(q, p)
+        assert E.shape == (n, n)
+        np.testing.assert_array_equal(E.view(np.uint64), np.asarray(fns.E(q, p)).view(np.uint64))
+        t = fns.evaluate(q, dq, p)
+        v = np.asarray(fns.terms_flat(np.concatenate([q, dq, p])).full()).ravel()
+        got = np.concatenate([t.f0, t.fv, t.fp, [t.S], t.T0, t.Tm.T.ravel(), [t.err], t.Tg, t.gK])
+        np.testing.assert_array_equal(got.view(np.uint64), v.view(np.uint64))
+        g = fns.gravity_efforts(q)
+        want = np.asarray(fns.effort(np.concatenate([q, np.zeros(n)]))).ravel()[fns.n_act :]
+        np.testing.assert_array_equal(g.view(np.uint64), want.view(np.uint64))

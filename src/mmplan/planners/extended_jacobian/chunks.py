@@ -121,7 +121,7 @@ def run(
         return none
     E0 = fns.chunk_start_E() if not opt.torque_control else None
     if E0 is None:
-        E0 = np.asarray(fns.E(q, p), dtype=float)
+        E0 = fns.E_at(q, p)
     cond = float(np.linalg.cond(E0))
     switching = wants_switch is not None and wants_switch(q, cond, E0)
     if not np.isfinite(cond) or cond > opt.cond_limit or switching:

@@ -153,6 +153,6 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
     return GeneratorFunctions(
         None, LazyFunction(terms), E, int(meta["n"]), int(meta["n_act"]), True, terms_flat,
         step_flat, effort, chunk, record=record, native_chunk=native, layout=layout, key=key,
-        native_ee=native_ee,
+        native_ee=native_ee, library=library,
         cache={"symbolic": built},
     )  # fmt: skip

@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.compile import codegen as cg
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout
 from mmplan.planners.extended_jacobian.prefetch import Speculation, speculation_of
 from mmplan.planners.extended_jacobian.step import CHUNK
@@ -93,10 +94,40 @@ class GeneratorFunctions:
     layout: ParameterLayout = field(default_factory=ParameterLayout)
     #: Disk-cache key of the compiled library ("" when not compiled or keyed by its model).
     key: str = ""
+    #: Path of the compiled library ("" on the virtual machine): ``E``, ``terms_flat`` and
+    #: ``effort`` are then called through ctypes (:meth:`_native`), not ``casadi.external``.
+    library: str = ""
+
+    def _native(self, name: str) -> Any:
+        """The compiled ``mmplan_ej_<name>`` as a ctypes call (made on first use), None on the
+        virtual machine."""
+        if not self.library:
+            return None
+        key = f"native_{name}"
+        if key not in self.cache:
+            self.cache[key] = cg.NativeFunction(self.library, f"mmplan_ej_{name}")
+        return self.cache[key]
+
+    def E_at(self, q: Array, p: Array) -> Array:
+        """E(q) (n, n) with parameters p."""
+        native = self._native("E")
+        if native is None:
+            return np.asarray(self.E(q, p), dtype=float)
+        n = self.n
+        native.x[:n] = q
+        native.x[n:] = p
+        native()
+        return native.dense()
 
     def evaluate(self, q: Array, dq: Array, p: Array) -> Terms:
         """``terms`` at (q, dq) with parameters p (``layout``)."""
-        v = self.terms_flat(np.concatenate([q, dq, p])).full().ravel()
+        native = self._native("terms_flat")
+        if native is None:
+            v = self.terms_flat(np.concatenate([q, dq, p])).full().ravel()
+        else:
+            native.x[:] = np.concatenate([q, dq, p])
+            native()
+            v = native.dense().ravel(order="F")
         n, a = self.n, self.n_act
         cut = np.cumsum([n, n, n, 1, a, a * n, 1, a])
         f0, fv, fp, S, T0, Tm, err, Tg, gK = np.split(v, cut)
@@ -135,8 +166,13 @@ class GeneratorFunctions:
     def gravity_efforts(self, q: Array) -> Array:
         """Tg at q: the actuator efforts that hold the robot at rest (n_act,), by ``effort``."""
         x = np.concatenate([np.asarray(q, dtype=float), np.zeros(self.n)])
-        out: Array = np.asarray(self.effort(x), dtype=float).ravel()[self.n_act :]
-        return out
+        native = self._native("effort")
+        if native is None:
+            out: Array = np.asarray(self.effort(x), dtype=float).ravel()[self.n_act :]
+            return out
+        native.x[:] = x
+        native()
+        return np.array(native.dense().ravel(order="F")[self.n_act :])
 
     def advance(
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float

@@ -87,7 +87,7 @@ def _cond(fns: GeneratorFunctions, q: Array, p: Array) -> float | None:
     """cond(E) at q, None when not finite."""
     if not np.all(np.isfinite(q)):
         return None
-    E = np.asarray(fns.E(q, p), dtype=float)
+    E = fns.E_at(q, p)
     return float(np.linalg.cond(E)) if np.all(np.isfinite(E)) else None
 
 
@@ -161,7 +161,7 @@ def rollout(
             _keep_start(rows, t, q, dq, out.Tg, u, err)
             break
         if k % opt.cond_every == 0:
-            E = np.asarray(fns.E(q, p), dtype=float)
+            E = fns.E_at(q, p)
             cond = float(np.linalg.cond(E))
             factor = None
             if switch is not None and switches < opt.max_switches:
@@ -173,7 +173,7 @@ def rollout(
                     p = fns.layout.retarget(p, switch.partitions[-1])
                     out = fns.evaluate(q, dq, p)
                     f0, fv = out.f0, out.fv
-                    cond = float(np.linalg.cond(np.asarray(fns.E(q, p), dtype=float)))
+                    cond = float(np.linalg.cond(fns.E_at(q, p)))
             max_cond = max(max_cond, cond)
             if not np.isfinite(cond) or cond > opt.cond_limit:
                 status, message = Status.DIVERGED, f"cond(E) = {cond:.3g} at t = {t:.3f} s"
