@@ -67,3 +67,33 @@ def test_a_library_for_the_native_cpu_is_keyed_by_the_cpu(
     assert cg._library(source, "t", native) != here[0]
     assert cg._library(source, "t", plain) == here[1]
     assert cg.native_flags(native) and not cg.native_flags(plain)
+
+
+def test_a_compiler_that_rejects_a_flag_gets_the_fallback_flags(
+    cache: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A compiler that rejects -march=native (an older Apple clang): the library is built with
+    the fallback flags instead of leaving the caller on CasADi's virtual machine, computes the
+    same, and a later call takes it from the cache without a build (the source is not even
+    made again)."""
+    real = cg.compiler()
+    assert real is not None
+    cc = tmp_path / "picky-cc"
+    cc.write_text('#!/bin/sh\nfor a in "$@"; do [ "$a" = -march=native ] && exit 1; done\n'
+                  f'exec {real} "$@"\n')  # fmt: skip
+    cc.chmod(0o755)
+    monkeypatch.setenv("CC", str(cc))
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("mmplan_t_picky", [x], [ca.sin(x[0]) * x[1] + x[1] ** 2])
+    native, plain = ("-O2", "-march=native"), ("-O2",)
+    assert cg.compile_library([f], "t", native) is None  # no fallback: as before
+    path = cg.compile_library([f], "t", native, key="picky", fallback=plain)
+    assert path is not None and Path(path) == cg._library("picky", "t", plain)
+    (g,) = cg.load(["mmplan_t_picky"], path)
+    for v in np.random.default_rng(2).normal(size=(5, 2)):
+        assert float(g(v)) == float(f(v))
+
+    def never() -> list[ca.Function]:
+        raise AssertionError("made again")
+
+    assert cg.compile_library(never, "t", native, key="picky", fallback=plain) == path

@@ -122,6 +122,7 @@ def compile_library(
     notify: Callable[[str], None] | None = None,
     key: str | None = None,
     cold: Sequence[str] = (),
+    fallback: Sequence[str] | None = None,
 ) -> str | None:
     """Compile ``functions`` into one cached shared library; its path, or None on failure.
 
@@ -134,26 +135,35 @@ def compile_library(
         key: Cache key that determines the functions (default: their generated source).
         cold: Names of functions called rarely (once a plan): the code only they reach is
             compiled with :data:`COLD_FLAGS` (:func:`_build`).
+        fallback: Plainer flags for a compiler that rejects one of ``flags`` (e.g. an
+            Apple clang without -march=native): built when ``flags`` fail, and taken from
+            the cache by later runs without trying ``flags`` again.
     """
     cc = compiler()
     if cc is None:
         return None
-    tag = [*flags, *cold]  # in the library's key with the flags
+    sets = [tuple(flags)]
+    if fallback is not None and tuple(fallback) != sets[0]:
+        sets.append(tuple(fallback))
     if key is not None:
-        library = _library(key, prefix, tag)
-        if library.exists():
-            return str(library)
+        for f in sets:
+            library = _library(key, prefix, [*f, *cold])  # the flags are in the key
+            if library.exists():
+                return str(library)
     if callable(functions):
         if key is None:
             raise ValueError("a lazily made library needs a key")
         functions = functions()
     source = _source(functions)
-    library = _library(key if key is not None else source, prefix, tag)
-    if library.exists():
-        return str(library)
-    if notify is not None:
-        notify(f"compiling {prefix} to C (once; cached in {library.parent})")
-    return str(library) if _build(cc, source, library, prefix, flags, cold) else None
+    for i, f in enumerate(sets):
+        library = _library(key if key is not None else source, prefix, [*f, *cold])
+        if library.exists():
+            return str(library)
+        if notify is not None and i == 0:
+            notify(f"compiling {prefix} to C (once; cached in {library.parent})")
+        if _build(cc, source, library, prefix, f, cold):
+            return str(library)
+    return None
 
 
 def _units(source: str, cold: Sequence[str] = ()) -> list[Unit]:

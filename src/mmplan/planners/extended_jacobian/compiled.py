@@ -41,6 +41,9 @@ NAMES = ("terms_flat", "step_flat", "chunk", "record_step", "effort", "E")
 #: youbot4r-reach compared); the build is cut into units compiled in parallel
 #: (:mod:`mmplan.compile.split`).
 CFLAGS = ("-O2", "-march=native")
+#: For a compiler that rejects one of :data:`CFLAGS` (an Apple clang without -march=native):
+#: the generic instruction set, the same plans (no fused multiply-adds either way).
+PLAIN_CFLAGS = ("-O2",)
 #: Functions of the library called about once a plan (:meth:`GeneratorFunctions.evaluate`):
 #: the code only they reach is compiled without optimisation (:func:`mmplan.compile.codegen.
 #: compile_library`'s ``cold``; the same results, every build being without fused

@@ -52,7 +52,7 @@ from mmplan.planners.extended_jacobian import obstacles as ej_obstacles
 from mmplan.planners.extended_jacobian import parameters as ej_parameters
 from mmplan.planners.extended_jacobian import slots as ej_slots
 from mmplan.planners.extended_jacobian import step as ej_step
-from mmplan.planners.extended_jacobian.compiled import CFLAGS, COLD
+from mmplan.planners.extended_jacobian.compiled import CFLAGS, COLD, PLAIN_CFLAGS
 from mmplan.planners.extended_jacobian.criterion import Criterion
 from mmplan.planners.extended_jacobian.effort import effort_split
 from mmplan.planners.extended_jacobian.functions import GeneratorFunctions, LazyFunction
@@ -272,7 +272,7 @@ def build_functions(
             ee_c = build_ee_flat(s.q, s.ee_position)
             return [terms_c, step_c, chunk_c, record_c, effort_c, flat, E_fn, ee_c]
 
-        built = cg.compile_library(make, "ej", CFLAGS, notify, key, COLD)
+        built = cg.compile_library(make, "ej", CFLAGS, notify, key, COLD, PLAIN_CFLAGS)
         if built is not None:
             terms_flat, step_flat, chunk, record, effort, E_c = cg.load(
                 [f"mmplan_ej_{x}" for x in ej_compiled.NAMES], built

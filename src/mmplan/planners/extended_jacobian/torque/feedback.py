@@ -20,7 +20,7 @@ import casadi as ca
 from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
 from mmplan.planners.extended_jacobian.functions import LazyFunction
-from mmplan.planners.extended_jacobian.generator import CFLAGS, GeneratorFunctions
+from mmplan.planners.extended_jacobian.generator import CFLAGS, PLAIN_CFLAGS, GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.torque import decision_symbolic as ej_decision_sym
 from mmplan.planners.extended_jacobian.torque import virtual_control as vc
@@ -68,7 +68,9 @@ def online_function(
             def make() -> list[ca.Function]:
                 return [ej_decision_sym.build_online(_terms(fns, True), fns.n, *args, cse=True)]
 
-            library = cg.compile_library(make, "ej_online", CFLAGS, notify, cache_key)
+            library = cg.compile_library(
+                make, "ej_online", CFLAGS, notify, cache_key, fallback=PLAIN_CFLAGS
+            )
             if library is not None:
                 fn = cg.load(["mmplan_ej_online"], library)[0]
         if fn is None:
