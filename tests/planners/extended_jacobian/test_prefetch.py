@@ -245,3 +245,22 @@ def test_ctypes_calls_equal_casadis_calls_of_the_same_library() -> None:
         g = fns.gravity_efforts(q)
         want = np.asarray(fns.effort(np.concatenate([q, np.zeros(n)]))).ravel()[fns.n_act :]
         np.testing.assert_array_equal(g.view(np.uint64), want.view(np.uint64))
+
+
+def test_a_library_that_cannot_be_called_through_ctypes_leaves_casadis_call() -> None:
+    """_native gives None (and E_at CasADi's call) when the library does not load through
+    ctypes, instead of raising inside a plan."""
+    planner, fns, problem = _plan_fns("youbot3r-obstacles-torque")
+    prep = planner._prepare(problem)  # type: ignore[attr-defined]
+    fns._speculate().settle()
+    want = fns.E_at(prep.q0, prep.params)
+    saved_library, saved = fns.library, dict(fns.cache)
+    try:
+        fns.library = "/nonexistent/mmplan_missing.so"
+        fns.cache.pop("native_E", None)
+        assert fns._native("E") is None
+        np.testing.assert_array_equal(fns.E_at(prep.q0, prep.params), want)
+    finally:
+        fns.library = saved_library
+        fns.cache.clear()
+        fns.cache.update(saved)

@@ -105,7 +105,10 @@ class GeneratorFunctions:
             return None
         key = f"native_{name}"
         if key not in self.cache:
-            self.cache[key] = cg.NativeFunction(self.library, f"mmplan_ej_{name}")
+            try:
+                self.cache[key] = cg.NativeFunction(self.library, f"mmplan_ej_{name}")
+            except (OSError, AttributeError, ValueError):  # not callable so: CasADi's call
+                self.cache[key] = None
         return self.cache[key]
 
     def E_at(self, q: Array, p: Array) -> Array:
