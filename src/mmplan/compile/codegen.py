@@ -142,9 +142,7 @@ def compile_library(
     cc = compiler()
     if cc is None:
         return None
-    sets = [tuple(flags)]
-    if fallback is not None and tuple(fallback) != sets[0]:
-        sets.append(tuple(fallback))
+    sets = _flag_sets(flags, fallback)
     if key is not None:
         for f in sets:
             library = _library(key, prefix, [*f, *cold])  # the flags are in the key
@@ -164,6 +162,14 @@ def compile_library(
         if _build(cc, source, library, prefix, f, cold):
             return str(library)
     return None
+
+
+def _flag_sets(flags: Sequence[str], fallback: Sequence[str] | None) -> list[tuple[str, ...]]:
+    """The flag sets to try in order: ``flags``, then ``fallback`` (when given and other)."""
+    sets = [tuple(flags)]
+    if fallback is not None and tuple(fallback) != sets[0]:
+        sets.append(tuple(fallback))
+    return sets
 
 
 def _units(source: str, cold: Sequence[str] = ()) -> list[Unit]:
@@ -251,9 +257,7 @@ def load_source(
     ``fallback``: plainer flags for a compiler that rejects one of ``flags`` (e.g. gcc's
     -fvect-cost-model elsewhere): a library built with them on an earlier run is taken as it
     is, without trying ``flags`` again."""
-    sets = [tuple(flags)]
-    if fallback is not None and tuple(fallback) != sets[0]:
-        sets.append(tuple(fallback))
+    sets = _flag_sets(flags, fallback)
     cached = [f for f in sets if _library(source, prefix, f).exists()]
     for f in cached or sets:
         path = compile_source(source, prefix, f)
@@ -267,13 +271,12 @@ def load_source(
 
 
 def source_is_cached(
-    source: str, prefix: str, flags: Sequence[str] = ("-O2",), fallback: Sequence[str] = ()
-) -> bool:
+    source: str, prefix: str, flags: Sequence[str] = ("-O2",),
+    fallback: Sequence[str] | None = None,
+) -> bool:  # fmt: skip
     """True when :func:`load_source` would load ``source``'s library without a build (with
     ``flags``, or with ``fallback`` when given)."""
-    return _library(source, prefix, flags).exists() or bool(
-        fallback and _library(source, prefix, fallback).exists()
-    )
+    return any(_library(source, prefix, f).exists() for f in _flag_sets(flags, fallback))
 
 
 def start_build(

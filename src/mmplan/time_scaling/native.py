@@ -106,37 +106,29 @@ typedef struct {
     int failed;
 } fixed_job;
 
-/* The bounds on x of the vertex of two slabs (passes._pair), for s1 and each slab s2_k,
-   k < count, given as arrays (a, b, lo, hi), folded into acc_lo[k] by mx and acc_hi[k] by mn.
-   A loop gcc vectorizes (-fno-trapping-math: the selects become blends; the divisions
-   dominate, four a vector instruction with AVX2); each lane does the operations of the
-   one-pair code. The caller folds the accumulators into one bound at the end: max and min
-   are exact and drop NaN in any order, so the bounds are those of the one loop to the bit. */
-static void pair_bounds(slab s1, const double *restrict a, const double *restrict b,
-                        const double *restrict lo, const double *restrict hi,
-                        double *restrict acc_lo, double *restrict acc_hi, int count) {
+/* The bounds on x of the vertex of two slabs (passes._pair): of f and each slab k < count
+   given as arrays (a, b, lo, hi), f the first of the pair when f_first, else the second;
+   folded into acc_lo[k] by mx and acc_hi[k] by mn. A loop gcc vectorizes (-fno-trapping-math:
+   the selects become blends; the divisions dominate, four a vector instruction with AVX2;
+   f_first is the same for the whole loop); each lane does the operations of the one-pair
+   code. The caller folds the accumulators into one bound at the end: max and min are exact
+   and drop NaN in any order, so the bounds are those of the one loop to the bit. */
+static void pair_bounds(slab f, int f_first, const double *restrict a,
+                        const double *restrict b, const double *restrict lo,
+                        const double *restrict hi, double *restrict acc_lo,
+                        double *restrict acc_hi, int count) {
     for (int k = 0; k < count; k++) {
-        double det = s1.a * b[k] - a[k] * s1.b;
-        double r1 = (s1.lo * b[k] - hi[k] * s1.b) / det;
-        double r2 = (s1.hi * b[k] - lo[k] * s1.b) / det;
+        double a1 = f_first ? f.a : a[k], b1 = f_first ? f.b : b[k];
+        double lo1 = f_first ? f.lo : lo[k], hi1 = f_first ? f.hi : hi[k];
+        double a2 = f_first ? a[k] : f.a, b2 = f_first ? b[k] : f.b;
+        double lo2 = f_first ? lo[k] : f.lo, hi2 = f_first ? hi[k] : f.hi;
+        double det = a1 * b2 - a2 * b1;
+        double r1 = (lo1 * b2 - hi2 * b1) / det;
+        double r2 = (hi1 * b2 - lo2 * b1) / det;
         int pos = det >= 0;
         double c_lo = (pos ? r1 : r2) + 0.0, c_hi = (pos ? r2 : r1) + 0.0;  /* sel */
         acc_lo[k] = (c_lo > acc_lo[k] ? c_lo : acc_lo[k]) + 0.0;  /* mx */
         acc_hi[k] = (c_hi < acc_hi[k] ? c_hi : acc_hi[k]) + 0.0;  /* mn */
-    }
-}
-
-/* The same with the second slab fixed: the vertex of each s1_j, j < count, and s2. */
-static void pair_bounds_with(slab s2, const double *restrict a, const double *restrict b,
-                             const double *restrict lo, const double *restrict hi,
-                             double *restrict c_lo, double *restrict c_hi, int count) {
-    for (int j = 0; j < count; j++) {
-        double det = a[j] * s2.b - s2.a * b[j];
-        double r1 = (lo[j] * s2.b - s2.hi * b[j]) / det;
-        double r2 = (hi[j] * s2.b - s2.lo * b[j]) / det;
-        int pos = det >= 0;
-        c_lo[j] = (pos ? r1 : r2) + 0.0;
-        c_hi[j] = (pos ? r2 : r1) + 0.0;
     }
 }
 
@@ -162,7 +154,7 @@ static void *fixed_pairs(void *arg) {
         double x_lo = 0.0, x_hi = J->x_upper[i];
         for (int k = 0; k < m; k++) { acc_lo[k] = x_lo; acc_hi[k] = x_hi; }
         for (int j = 0; j + 1 < m; j++)  /* the pairs (j, k > j) */
-            pair_bounds(s[j], a + j + 1, b + j + 1, lo + j + 1, hi + j + 1, acc_lo + j + 1,
+            pair_bounds(s[j], 1, a + j + 1, b + j + 1, lo + j + 1, hi + j + 1, acc_lo + j + 1,
                         acc_hi + j + 1, m - j - 1);
         for (int k = 1; k < m; k++) {
             x_lo = mx(x_lo, acc_lo[k]);
@@ -211,18 +203,19 @@ int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta
        (max and min are exact and drop NaN whatever the order: the same bits as all pairs in
        one loop) */
     int r = m - 1;  /* the interval's slabs and the box, each paired with K_{i+1}'s */
-    double *a = v, *b = v + r, *lo = v + 2 * r, *hi = v + 3 * r, *c_lo = v + 4 * r,
-           *c_hi = v + 5 * r;
+    double *a = v, *b = v + r, *lo = v + 2 * r, *hi = v + 3 * r, *acc_lo = v + 4 * r,
+           *acc_hi = v + 5 * r;
     for (int i = top; i >= 0; i--) {
         double delta = interval(n, i, alpha, beta, g, sigma, zone, s);
         s[2 * n].a = 0.0; s[2 * n].b = 1.0; s[2 * n].lo = -V_BOX; s[2 * n].hi = V_BOX;
         slab next = {1.0, delta, k_lo, k_hi};
         double x_lo = pre[i], x_hi = pre[count + i];
         arrays_of(s, r, v);
-        pair_bounds_with(next, a, b, lo, hi, c_lo, c_hi, r);
-        for (int j = 0; j < r; j++) {  /* the pairs (j, next), in order */
-            x_lo = mx(x_lo, c_lo[j]);
-            x_hi = mn(x_hi, c_hi[j]);
+        for (int j = 0; j < r; j++) { acc_lo[j] = x_lo; acc_hi[j] = x_hi; }
+        pair_bounds(next, 0, a, b, lo, hi, acc_lo, acc_hi, r);  /* the pairs (j, next) */
+        for (int j = 0; j < r; j++) {
+            x_lo = mx(x_lo, acc_lo[j]);
+            x_hi = mn(x_hi, acc_hi[j]);
         }
         x_hi = mx(x_hi, -BIG);
         out_empty[i] = x_lo > x_hi + TOL * (1.0 + fabs(x_hi)) ? 1.0 : 0.0;

@@ -175,7 +175,7 @@ class GeneratorFunctions:
             return out
         native.x[:] = x
         native()
-        return np.array(native.dense().ravel(order="F")[self.n_act :])
+        return native.dense().ravel(order="F")[self.n_act :]
 
     def advance(
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float

@@ -81,17 +81,11 @@ class SlotTerm:
         norm = ca.sqrt(ca.sumsqr(loc))
         return norm * (1.0 - power_sym(implicit, -e1 / 2.0))
 
-    def box_gap(self, point: ca.SX, prm: ca.SX) -> ca.SX:
-        """A lower bound of :meth:`gap` (distance to the model's bounding box; the floor's
-        height itself)."""
-        if self.exponents is None:
-            return point[2] - prm[0]
-        out = ca.fmax(ca.fabs(self._local(point, prm)) - prm[3:6], 0.0)
-        return ca.sqrt(ca.sumsqr(out))
-
     def within(self, point: ca.SX, prm: ca.SX, reach: float) -> ca.SX:
         """1 where the point may lie within ``reach`` + delta of the term, else 0: wherever
-        ``box_gap(point) < reach + delta`` holds, and a hair beyond (:data:`CULL_SLACK`).
+        the point's distance to the model's bounding box (a lower bound of :meth:`gap`; the
+        floor: its height itself) is below reach + delta, and a hair beyond
+        (:data:`CULL_SLACK`).
 
         The culling test of every (point group, term) pair, five times a step: compared
         squared, the box's excess clipped at 0 by a comparison (gcc inlines it; ``fmax`` is a
