@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import ctypes
+import os
+import signal
+import time
 from pathlib import Path
 
 import casadi as ca
@@ -102,3 +105,60 @@ def test_a_core_is_idle_only_when_fewer_threads_are_ready_than_the_other_cores(
         threads._IDLE_CHECK[0] = -1.0  # look again
         assert threads.idle_core() is idle, (n, others)
     threads._IDLE_CHECK[0] = -1.0
+
+
+def _tasks() -> int:
+    return len(os.listdir("/proc/self/task"))
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="needs Linux's /proc")
+def test_the_worker_serves_many_jobs_and_stops_when_closed(cache: Path) -> None:
+    """One worker thread per job, kept between starts (it spins, then sleeps, for the next)
+    and stopped by close; results stay those of the direct call."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native = _native()
+    before = _tasks()
+    job = threads.Job(*native.signature())
+    rng = np.random.default_rng(5)
+    for i in range(20):
+        x = rng.normal(size=4)
+        native.x[:] = x
+        direct = native().copy()
+        job.start()
+        assert job.wait() == 0
+        np.testing.assert_array_equal(native.y, direct)
+        assert _tasks() == before + 1
+        if i == 10:
+            time.sleep(3 * threads.SPIN_S)  # the worker sleeps now; a start wakes it
+    job.close()
+    assert _tasks() == before
+    job.close()  # again: nothing
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
+def test_a_forked_child_gets_its_own_worker(cache: Path) -> None:
+    """The worker thread stays in the parent: a child's first start makes its own (else its
+    wait would spin for a result no thread computes)."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native = _native()
+    job = threads.Job(*native.signature())
+    native.x[:] = [0.3, -1.0, 0.5, 2.0]
+    direct = native().copy()
+    job.start()
+    assert job.wait() == 0
+    pid = os.fork()
+    if pid == 0:  # the child: exit code 0 when its job computed the right values
+        code = 1
+        try:
+            signal.alarm(20)  # a child that spins for ever is killed (the test fails)
+            native.y[:] = np.nan
+            job.start()
+            code = 0 if job.wait() == 0 and np.array_equal(native.y, direct) else 1
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0
+    job.start()  # the parent's worker still serves it
+    assert job.wait() == 0

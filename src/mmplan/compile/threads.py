@@ -4,12 +4,24 @@ A thread of Python's own would need the interpreter lock to start the call, and 
 holding it gives it up only every ``sys.getswitchinterval()`` (5 ms) while it computes:
 measured on youbot3r-obstacles-torque, a Python worker that ran the next compiled chunk
 during the rollout's checks made the plan 2 ms slower, not faster. Here the call runs on a
-POSIX thread started from C: :meth:`Job.start` returns at once, :meth:`Job.wait` joins it
-(ctypes releases the lock while waiting). The few lines of C are compiled once per machine
-(:func:`mmplan.compile.codegen.load_source`, about 0.2 s, in the background: :func:`prefetch`,
-started by the first rollout that wants it, after the generator's own compile, which it
-would otherwise slow) and cached with the other libraries; without threads a job runs inside
-:meth:`Job.start` (same result, no overlap).
+POSIX thread of C: :meth:`Job.start` posts it and returns at once, :meth:`Job.wait` waits
+for it (ctypes releases the lock while waiting). The few lines of C are compiled once per
+machine (:func:`mmplan.compile.codegen.load_source`, about 0.2 s, in the background:
+:func:`prefetch`, started by the first rollout that wants it, after the generator's own
+compile, which it would otherwise slow) and cached with the other libraries; without threads
+a job runs inside :meth:`Job.start` (same result, no overlap).
+
+One worker thread per job, not a thread per start. Linux queues a new thread on its
+creator's CPU and moves it only when that CPU idles or the balancer runs, and a sleeping
+thread woken on an idle CPU of a virtual machine waits for its virtual CPU to be scheduled.
+Measured on the 2-core VM (a 0.59 ms chunk started on a thread, then 0.6 ms of Python on the
+caller): with ``pthread_create`` per start the result came 0.61 ms after the Python (the
+thread had waited for the caller's CPU: 1.2 ms in all); with the thread placed on the other
+CPU at creation, the rollout's waits for its chunks grew from 4.7 to 9.7 ms a plan (the idle
+CPU's wake-up); with the worker spinning :data:`SPIN_S` for its next job (the rollout posts
+one every 0.5-1 ms) the result is there 0.002 ms after the Python, and the rollout's waits
+fell to 2.8 ms a plan. After :data:`SPIN_S` without a job the worker sleeps on a condition
+variable; its spinning is not counted as the machine's load (:func:`idle_core`).
 """
 
 from __future__ import annotations
@@ -26,12 +38,21 @@ from mmplan.compile import codegen
 FLAGS = ("-O2", "-pthread")
 PREFIX = "threads"
 
+#: Seconds a worker spins for its next job before it sleeps (:data:`SOURCE`).
+SPIN_S = 0.005
+
 SOURCE = r"""
 #include <pthread.h>
+#include <sched.h>
+#include <stdatomic.h>
 #include <stdlib.h>
+#include <time.h>
+#include <unistd.h>
 
 /* the signature of a function of CasADi's generated code (casadi_int passed as void*) */
 typedef int (*mmplan_fn)(const double **arg, double **res, void *iw, double *w, int mem);
+
+enum { IDLE = 0, POSTED = 1, DONE = 2, QUIT = 3 };
 
 typedef struct {
     mmplan_fn f;
@@ -41,19 +62,62 @@ typedef struct {
     double *w;
     int mem;
     int ret;
-    int running;
+    int started;      /* a start whose wait has not come yet */
+    int worker;       /* a worker thread serves this job */
+    pid_t owner;      /* the process whose thread it is (a forked child has none) */
+    atomic_int state;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
     pthread_t thread;
 } mmplan_job;
 
-static void *mmplan_job_run(void *p) {
+/* workers spinning for a job now (counted out of the machine's load, mmplan_spinning) */
+static atomic_int spinning;
+
+static double now(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static void relax(void) {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#elif defined(__aarch64__)
+    __asm__ __volatile__("yield");
+#endif
+}
+
+/* Spin SPIN_S seconds for the next job, then sleep on the condition variable until one is
+   posted (or QUIT). Returns the state that ended the wait. */
+static int next_job(mmplan_job *j) {
+    double until = now() + SPIN_S;
+    int s, n = 0;
+    atomic_fetch_add(&spinning, 1);
+    while ((s = atomic_load_explicit(&j->state, memory_order_acquire)) != POSTED && s != QUIT) {
+        relax();
+        if (++n % 256 == 0 && now() > until) break;
+    }
+    atomic_fetch_sub(&spinning, 1);
+    if (s == POSTED || s == QUIT) return s;
+    pthread_mutex_lock(&j->mu);
+    while ((s = atomic_load(&j->state)) != POSTED && s != QUIT) pthread_cond_wait(&j->cv, &j->mu);
+    pthread_mutex_unlock(&j->mu);
+    return s;
+}
+
+static void *mmplan_worker(void *p) {
     mmplan_job *j = (mmplan_job *)p;
-    j->ret = j->f(j->arg, j->res, j->iw, j->w, j->mem);
+    while (next_job(j) == POSTED) {
+        j->ret = j->f(j->arg, j->res, j->iw, j->w, j->mem);
+        atomic_store_explicit(&j->state, DONE, memory_order_release);
+    }
     return NULL;
 }
 
-size_t mmplan_job_size(void) { return sizeof(mmplan_job); }
-
-void mmplan_job_set(mmplan_job *j, void *f, void *arg, void *res, void *iw, void *w, int mem) {
+mmplan_job *mmplan_job_new(void *f, void *arg, void *res, void *iw, void *w, int mem) {
+    mmplan_job *j = (mmplan_job *)calloc(1, sizeof(mmplan_job));
+    if (!j) return NULL;
     j->f = (mmplan_fn)f;
     j->arg = (const double **)arg;
     j->res = (double **)res;
@@ -61,24 +125,69 @@ void mmplan_job_set(mmplan_job *j, void *f, void *arg, void *res, void *iw, void
     j->w = w;
     j->mem = mem;
     j->ret = -1;
-    j->running = 0;
+    atomic_init(&j->state, IDLE);
+    pthread_mutex_init(&j->mu, NULL);
+    pthread_cond_init(&j->cv, NULL);
+    return j;
 }
 
-/* 1: running on its own thread; 0: no thread could start, evaluated here */
+/* 1: posted to the worker thread; 0: no thread could start, evaluated here */
 int mmplan_job_start(mmplan_job *j) {
-    j->running = pthread_create(&j->thread, NULL, mmplan_job_run, j) == 0;
-    if (!j->running) mmplan_job_run(j);
-    return j->running;
+    if (j->worker && j->owner != getpid()) {  /* forked: the worker stayed in the parent */
+        j->worker = 0;
+        pthread_mutex_init(&j->mu, NULL);
+        pthread_cond_init(&j->cv, NULL);
+    }
+    if (!j->worker) {
+        atomic_store(&j->state, IDLE);
+        j->owner = getpid();
+        j->worker = pthread_create(&j->thread, NULL, mmplan_worker, j) == 0;
+    }
+    j->started = 1;
+    if (!j->worker) {
+        j->ret = j->f(j->arg, j->res, j->iw, j->w, j->mem);
+        atomic_store(&j->state, DONE);
+        return 0;
+    }
+    pthread_mutex_lock(&j->mu);
+    atomic_store_explicit(&j->state, POSTED, memory_order_release);
+    pthread_cond_signal(&j->cv);
+    pthread_mutex_unlock(&j->mu);
+    return 1;
 }
 
 int mmplan_job_wait(mmplan_job *j) {
-    if (j->running) pthread_join(j->thread, NULL);
-    j->running = 0;
+    if (!j->started) return -1;  /* no start since the last wait: no result */
+    j->started = 0;
+    int n = 0;
+    while (atomic_load_explicit(&j->state, memory_order_acquire) != DONE) {
+        relax();
+        if (++n % 4096 == 0) sched_yield();  /* the worker may be waiting for this CPU */
+    }
+    atomic_store(&j->state, IDLE);
     int ret = j->ret;
-    j->ret = -1;  /* the next wait without a start has no result */
+    j->ret = -1;
     return ret;
 }
-"""
+
+/* Waits for a job in flight, stops the worker and frees the job. */
+void mmplan_job_free(mmplan_job *j) {
+    if (!j) return;
+    if (j->worker && j->owner == getpid()) {
+        mmplan_job_wait(j);
+        pthread_mutex_lock(&j->mu);
+        atomic_store(&j->state, QUIT);
+        pthread_cond_signal(&j->cv);
+        pthread_mutex_unlock(&j->mu);
+        pthread_join(j->thread, NULL);
+    }
+    pthread_mutex_destroy(&j->mu);
+    pthread_cond_destroy(&j->cv);
+    free(j);
+}
+
+int mmplan_spinning(void) { return atomic_load(&spinning); }
+""".replace("SPIN_S", repr(SPIN_S))
 
 
 def cores() -> int:
@@ -92,13 +201,16 @@ _IDLE_CHECK: list[float] = [-1.0, 0.0]  # [checked at (monotonic s), idle (0 or 
 
 
 def _others_running() -> float:
-    """Threads running or ready to run on the machine now, besides the caller: the 4th field
-    of /proc/loadavg less one; elsewhere the 1-minute load average."""
+    """Threads running or ready to run on the machine now, besides the caller and this
+    process's workers spinning for their next job (:data:`SPIN_S`): the 4th field of
+    /proc/loadavg less those; elsewhere the 1-minute load average."""
     try:
         with open("/proc/loadavg") as f:
-            return float(int(f.read().split()[3].split("/")[0]) - 1)
+            running = int(f.read().split()[3].split("/")[0])
     except (OSError, IndexError, ValueError):
         return os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
+    lib = library() if library.cache_info().currsize else None
+    return float(running - 1 - (int(lib.spinning()) if lib is not None else 0))
 
 
 def idle_core() -> bool:
@@ -119,15 +231,17 @@ def idle_core() -> bool:
 
 class _Library:
     def __init__(self, lib: ctypes.CDLL) -> None:
-        lib.mmplan_job_size.restype = ctypes.c_size_t
-        self.size = int(lib.mmplan_job_size())
         vp = ctypes.c_void_p
-        lib.mmplan_job_set.argtypes = [vp, vp, vp, vp, vp, vp, ctypes.c_int]
-        lib.mmplan_job_set.restype = None
+        lib.mmplan_job_new.argtypes = [vp, vp, vp, vp, vp, ctypes.c_int]
+        lib.mmplan_job_new.restype = vp
+        lib.mmplan_job_free.argtypes = [vp]
+        lib.mmplan_job_free.restype = None
         lib.mmplan_job_start.argtypes = [vp]
         lib.mmplan_job_wait.argtypes = [vp]
-        self.set, self.start = lib.mmplan_job_set, lib.mmplan_job_start
-        self.wait = lib.mmplan_job_wait
+        lib.mmplan_spinning.argtypes = []
+        self.new, self.free = lib.mmplan_job_new, lib.mmplan_job_free
+        self.start, self.wait = lib.mmplan_job_start, lib.mmplan_job_wait
+        self.spinning = lib.mmplan_spinning
 
 
 @lru_cache(maxsize=1)
@@ -158,7 +272,11 @@ def prefetch() -> None:
 
 
 class Job:
-    """One call of a generated function with fixed buffers, run on a C thread.
+    """One call of a generated function with fixed buffers, run by a worker thread of C.
+
+    The worker starts with the first :meth:`start`, spins for :data:`SPIN_S` after each job
+    for the next one (the rollout posts one every 0.5-1 ms) and then sleeps until one comes;
+    :meth:`close` (or the job's collection) stops it.
 
     Args:
         function: The ctypes function (``casadi`` generated signature).
@@ -171,18 +289,32 @@ class Job:
         if lib is None:
             raise OSError("no thread helper")
         self._lib = lib
-        self._job = ctypes.create_string_buffer(lib.size)
         address = ctypes.cast(function, ctypes.c_void_p)
-        lib.set(self._job, address, *(ctypes.cast(x, ctypes.c_void_p) for x in (arg, res, iw, w)),
-                mem)  # fmt: skip
+        pointers = (ctypes.cast(x, ctypes.c_void_p) for x in (arg, res, iw, w))
+        self._job: int | None = lib.new(address, *pointers, mem)
+        if not self._job:
+            raise OSError("no memory for a job")
+        self._keep = (function, arg, res, iw, w)  # the worker reads them until close
         self.running = False
 
     def start(self) -> None:
-        """Evaluate on a new C thread (in this call when none can start)."""
+        """Post the evaluation to the worker thread (evaluated in this call when no thread
+        can start)."""
         self._lib.start(self._job)
         self.running = True
 
     def wait(self) -> int:
-        """Join the evaluation; the function's return code (0: success)."""
+        """Wait for the evaluation; the function's return code (0: success; -1: no start
+        since the last wait)."""
         self.running = False
         return int(self._lib.wait(self._job))
+
+    def close(self) -> None:
+        """Wait for a job in flight and stop the worker thread (idempotent)."""
+        job, self._job = self._job, None
+        if job:
+            self._lib.free(job)
+
+    def __del__(self) -> None:
+        if getattr(self, "_job", None):
+            self.close()
