@@ -42,10 +42,10 @@ import mmplan
 import mmplan.planners.extended_jacobian.functions as F
 seen, lib = [], []
 original = F.GeneratorFunctions._native_call
-def spy(self, x, guess_next=False):
+def spy(self, x, *rest):  # (x) here, (x, guess_next) in older trees
     seen.append(np.array(x))
     lib.append(self.native_chunk._lib._name)
-    return original(self, x, guess_next)
+    return original(self, x, *rest)
 F.GeneratorFunctions._native_call = spy
 scenario = mmplan.load_scenario(sys.argv[1])
 mmplan.get_planner(scenario.method)().plan(scenario.build())

@@ -39,6 +39,7 @@ def test_c_loops_equal_the_casadi_steps_bit_for_bit(monkeypatch: pytest.MonkeyPa
     kernels = native.kernels()
     assert kernels is not None
     monkeypatch.setattr(threads, "idle_core", lambda: True)  # split whatever the load
+    assert threads.library() is not None  # the process's worker takes half the fixed pairs
     rng = np.random.default_rng(7)
     empty = 0
     for _ in range(40):
@@ -99,6 +100,7 @@ def test_degenerate_rows_follow_casadi_bit_for_bit(monkeypatch: pytest.MonkeyPat
     kernels = native.kernels()
     assert kernels is not None
     monkeypatch.setattr(threads, "idle_core", lambda: True)
+    assert threads.library() is not None
     rng = np.random.default_rng(21)
     for trial in range(40):
         N, n = int(rng.integers(3, 70)), int(rng.choice([1, 2, 3, 5]))

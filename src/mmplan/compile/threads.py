@@ -11,7 +11,7 @@ machine (:func:`mmplan.compile.codegen.load_source`, about 0.2 s, in the backgro
 compile, which it would otherwise slow) and cached with the other libraries; without threads
 a job runs inside :meth:`Job.start` (same result, no overlap).
 
-One worker thread per job, not a thread per start. Linux queues a new thread on its
+One worker thread per process, not a thread per start. Linux queues a new thread on its
 creator's CPU and moves it only when that CPU idles or the balancer runs, and a sleeping
 thread woken on an idle CPU of a virtual machine waits for its virtual CPU to be scheduled.
 Measured on the 2-core VM (a 0.59 ms chunk started on a thread, then 0.6 ms of Python on the
@@ -21,7 +21,10 @@ CPU at creation, the rollout's waits for its chunks grew from 4.7 to 9.7 ms a pl
 CPU's wake-up); with the worker spinning :data:`SPIN_S` for its next job (the rollout posts
 one every 0.5-1 ms) the result is there 0.002 ms after the Python, and the rollout's waits
 fell to 2.8 ms a plan. After :data:`SPIN_S` without a job the worker sleeps on a condition
-variable; its spinning is not counted as the machine's load (:func:`idle_core`).
+variable; its spinning is not counted as the machine's load (:func:`idle_core`). The time
+scaling's backward pass splits its work with the same worker (``mmplan_pair``,
+:attr:`_Library.pair`): with a thread of its own it had to share the two CPUs with the
+spinning worker (measured: 2.7-3.9 ms a plan instead of 1.5).
 """
 
 from __future__ import annotations
@@ -49,30 +52,21 @@ SOURCE = r"""
 #include <time.h>
 #include <unistd.h>
 
-/* the signature of a function of CasADi's generated code (casadi_int passed as void*) */
-typedef int (*mmplan_fn)(const double **arg, double **res, void *iw, double *w, int mem);
+enum { IDLE = 0, POSTED = 1, DONE = 2 };
 
-enum { IDLE = 0, POSTED = 1, DONE = 2, QUIT = 3 };
-
-typedef struct {
-    mmplan_fn f;
-    const double **arg;
-    double **res;
-    void *iw;
-    double *w;
-    int mem;
-    int ret;
-    int started;      /* a start whose wait has not come yet */
-    int worker;       /* a worker thread serves this job */
-    pid_t owner;      /* the process whose thread it is (a forked child has none) */
+/* The process's worker thread: one task at a time, claimed by its poster (busy). */
+static struct {
+    void (*task)(void *);
+    void *data;
     atomic_int state;
+    atomic_int busy;
+    atomic_int spinning;
+    int running;   /* the thread exists (in the process owner) */
+    pid_t owner;
     pthread_mutex_t mu;
     pthread_cond_t cv;
     pthread_t thread;
-} mmplan_job;
-
-/* workers spinning for a job now (counted out of the machine's load, mmplan_spinning) */
-static atomic_int spinning;
+} W = {.mu = PTHREAD_MUTEX_INITIALIZER, .cv = PTHREAD_COND_INITIALIZER};
 
 static double now(void) {
     struct timespec t;
@@ -88,31 +82,100 @@ static void relax(void) {
 #endif
 }
 
-/* Spin SPIN_S seconds for the next job, then sleep on the condition variable until one is
-   posted (or QUIT). Returns the state that ended the wait. */
-static int next_job(mmplan_job *j) {
+/* Spin SPIN_S seconds for the next task, then sleep until one is posted. */
+static void next_task(void) {
     double until = now() + SPIN_S;
-    int s, n = 0;
-    atomic_fetch_add(&spinning, 1);
-    while ((s = atomic_load_explicit(&j->state, memory_order_acquire)) != POSTED && s != QUIT) {
+    int n = 0;
+    atomic_store(&W.spinning, 1);
+    while (atomic_load_explicit(&W.state, memory_order_acquire) != POSTED) {
         relax();
         if (++n % 256 == 0 && now() > until) break;
     }
-    atomic_fetch_sub(&spinning, 1);
-    if (s == POSTED || s == QUIT) return s;
-    pthread_mutex_lock(&j->mu);
-    while ((s = atomic_load(&j->state)) != POSTED && s != QUIT) pthread_cond_wait(&j->cv, &j->mu);
-    pthread_mutex_unlock(&j->mu);
-    return s;
+    atomic_store(&W.spinning, 0);
+    if (atomic_load_explicit(&W.state, memory_order_acquire) == POSTED) return;
+    pthread_mutex_lock(&W.mu);
+    while (atomic_load(&W.state) != POSTED) pthread_cond_wait(&W.cv, &W.mu);
+    pthread_mutex_unlock(&W.mu);
 }
 
-static void *mmplan_worker(void *p) {
-    mmplan_job *j = (mmplan_job *)p;
-    while (next_job(j) == POSTED) {
-        j->ret = j->f(j->arg, j->res, j->iw, j->w, j->mem);
-        atomic_store_explicit(&j->state, DONE, memory_order_release);
+static void *worker(void *unused) {
+    (void)unused;
+    for (;;) {
+        next_task();
+        W.task(W.data);
+        atomic_store_explicit(&W.state, DONE, memory_order_release);
     }
     return NULL;
+}
+
+/* Post task(data) to the worker: 1 when posted (then mmplan_task_wait), 0 when the worker
+   is another poster's now or no thread can start (the caller runs the task itself). */
+int mmplan_task_post(void (*task)(void *), void *data) {
+    if (atomic_exchange(&W.busy, 1)) return 0;
+    if (W.running && W.owner != getpid()) {  /* forked: the thread stayed in the parent */
+        W.running = 0;
+        pthread_mutex_init(&W.mu, NULL);
+        pthread_cond_init(&W.cv, NULL);
+    }
+    if (!W.running) {
+        atomic_store(&W.state, IDLE);
+        W.owner = getpid();
+        W.running = pthread_create(&W.thread, NULL, worker, NULL) == 0;
+        if (W.running) pthread_detach(W.thread);
+    }
+    if (!W.running) {
+        atomic_store(&W.busy, 0);
+        return 0;
+    }
+    W.task = task;
+    W.data = data;
+    pthread_mutex_lock(&W.mu);
+    atomic_store_explicit(&W.state, POSTED, memory_order_release);
+    pthread_cond_signal(&W.cv);
+    pthread_mutex_unlock(&W.mu);
+    return 1;
+}
+
+/* Wait for the task posted last (by this caller) and release the worker. */
+void mmplan_task_wait(void) {
+    int n = 0;
+    while (atomic_load_explicit(&W.state, memory_order_acquire) != DONE) {
+        relax();
+        if (++n % 4096 == 0) sched_yield();  /* the worker may be waiting for this CPU */
+    }
+    atomic_store(&W.state, IDLE);
+    atomic_store(&W.busy, 0);
+}
+
+/* task(a) here and task(b) on the worker at the same time (both here, one after the other,
+   when the worker is not free); returns when both are done. */
+void mmplan_pair(void (*task)(void *), void *a, void *b) {
+    int posted = mmplan_task_post(task, b);
+    task(a);
+    if (posted) mmplan_task_wait();
+    else task(b);
+}
+
+int mmplan_spinning(void) { return atomic_load(&W.spinning); }
+
+/* the signature of a function of CasADi's generated code (casadi_int passed as void*) */
+typedef int (*mmplan_fn)(const double **arg, double **res, void *iw, double *w, int mem);
+
+typedef struct {
+    mmplan_fn f;
+    const double **arg;
+    double **res;
+    void *iw;
+    double *w;
+    int mem;
+    int ret;
+    int started;  /* a start whose wait has not come yet */
+    int posted;   /* ... running on the worker */
+} mmplan_job;
+
+static void job_run(void *p) {
+    mmplan_job *j = (mmplan_job *)p;
+    j->ret = j->f(j->arg, j->res, j->iw, j->w, j->mem);
 }
 
 mmplan_job *mmplan_job_new(void *f, void *arg, void *res, void *iw, void *w, int mem) {
@@ -125,68 +188,33 @@ mmplan_job *mmplan_job_new(void *f, void *arg, void *res, void *iw, void *w, int
     j->w = w;
     j->mem = mem;
     j->ret = -1;
-    atomic_init(&j->state, IDLE);
-    pthread_mutex_init(&j->mu, NULL);
-    pthread_cond_init(&j->cv, NULL);
     return j;
 }
 
-/* 1: posted to the worker thread; 0: no thread could start, evaluated here */
+/* 1: posted to the worker; 0: evaluated here (the worker busy, or no thread) */
 int mmplan_job_start(mmplan_job *j) {
-    if (j->worker && j->owner != getpid()) {  /* forked: the worker stayed in the parent */
-        j->worker = 0;
-        pthread_mutex_init(&j->mu, NULL);
-        pthread_cond_init(&j->cv, NULL);
-    }
-    if (!j->worker) {
-        atomic_store(&j->state, IDLE);
-        j->owner = getpid();
-        j->worker = pthread_create(&j->thread, NULL, mmplan_worker, j) == 0;
-    }
     j->started = 1;
-    if (!j->worker) {
-        j->ret = j->f(j->arg, j->res, j->iw, j->w, j->mem);
-        atomic_store(&j->state, DONE);
-        return 0;
-    }
-    pthread_mutex_lock(&j->mu);
-    atomic_store_explicit(&j->state, POSTED, memory_order_release);
-    pthread_cond_signal(&j->cv);
-    pthread_mutex_unlock(&j->mu);
-    return 1;
+    j->posted = mmplan_task_post(job_run, j);
+    if (!j->posted) job_run(j);
+    return j->posted;
 }
 
 int mmplan_job_wait(mmplan_job *j) {
     if (!j->started) return -1;  /* no start since the last wait: no result */
     j->started = 0;
-    int n = 0;
-    while (atomic_load_explicit(&j->state, memory_order_acquire) != DONE) {
-        relax();
-        if (++n % 4096 == 0) sched_yield();  /* the worker may be waiting for this CPU */
-    }
-    atomic_store(&j->state, IDLE);
+    if (j->posted) mmplan_task_wait();
+    j->posted = 0;
     int ret = j->ret;
     j->ret = -1;
     return ret;
 }
 
-/* Waits for a job in flight, stops the worker and frees the job. */
+/* Waits for a job in flight, then frees it. */
 void mmplan_job_free(mmplan_job *j) {
     if (!j) return;
-    if (j->worker && j->owner == getpid()) {
-        mmplan_job_wait(j);
-        pthread_mutex_lock(&j->mu);
-        atomic_store(&j->state, QUIT);
-        pthread_cond_signal(&j->cv);
-        pthread_mutex_unlock(&j->mu);
-        pthread_join(j->thread, NULL);
-    }
-    pthread_mutex_destroy(&j->mu);
-    pthread_cond_destroy(&j->cv);
+    mmplan_job_wait(j);
     free(j);
 }
-
-int mmplan_spinning(void) { return atomic_load(&spinning); }
 """.replace("SPIN_S", repr(SPIN_S))
 
 
@@ -239,6 +267,9 @@ class _Library:
         lib.mmplan_job_start.argtypes = [vp]
         lib.mmplan_job_wait.argtypes = [vp]
         lib.mmplan_spinning.argtypes = []
+        #: Address of ``void mmplan_pair(void (*task)(void *), void *a, void *b)`` for other
+        #: libraries' C (task(a) here, task(b) on the worker).
+        self.pair = ctypes.cast(lib.mmplan_pair, ctypes.c_void_p).value
         self.new, self.free = lib.mmplan_job_new, lib.mmplan_job_free
         self.start, self.wait = lib.mmplan_job_start, lib.mmplan_job_wait
         self.spinning = lib.mmplan_spinning
@@ -272,11 +303,10 @@ def prefetch() -> None:
 
 
 class Job:
-    """One call of a generated function with fixed buffers, run by a worker thread of C.
-
-    The worker starts with the first :meth:`start`, spins for :data:`SPIN_S` after each job
-    for the next one (the rollout posts one every 0.5-1 ms) and then sleeps until one comes;
-    :meth:`close` (or the job's collection) stops it.
+    """One call of a generated function with fixed buffers, run by the process's worker
+    thread of C (:data:`SOURCE`; started by the first post, it spins for :data:`SPIN_S` after
+    each task for the next one, the rollout posts one every 0.5-1 ms, then sleeps until one
+    comes). While the worker runs another caller's task, :meth:`start` evaluates here.
 
     Args:
         function: The ctypes function (``casadi`` generated signature).
@@ -298,8 +328,8 @@ class Job:
         self.running = False
 
     def start(self) -> None:
-        """Post the evaluation to the worker thread (evaluated in this call when no thread
-        can start)."""
+        """Post the evaluation to the worker thread (evaluated in this call when the worker is
+        busy or no thread can start)."""
         self._lib.start(self._job)
         self.running = True
 
@@ -310,7 +340,7 @@ class Job:
         return int(self._lib.wait(self._job))
 
     def close(self) -> None:
-        """Wait for a job in flight and stop the worker thread (idempotent)."""
+        """Wait for a job in flight and free the job (idempotent)."""
         job, self._job = self._job, None
         if job:
             self._lib.free(job)

@@ -18,8 +18,9 @@ Builds in about 0.2 s instead of 1.75 s for the generated passes.
 The backward step's pairs fall in two groups: those among the interval's own slabs and the
 box on u (most of them: 528 of 561 for 16 rows), which do not depend on the recursion, and
 the 2 n + 1 pairs with the slab of K_{i+1}. The first group runs for all intervals before
-the recursion, split between two threads on paths of 64 intervals or more while a core is
-idle (:func:`mmplan.compile.threads.idle_core`); max and min are exact and drop NaN in any
+the recursion, split between this thread and the process's worker thread
+(:mod:`mmplan.compile.threads`, ``mmplan_pair``) on paths of 64 intervals or more while a core
+is idle (:func:`mmplan.compile.threads.idle_core`); max and min are exact and drop NaN in any
 order, so the bounds are those of the one loop to the bit (tests). Measured on the paper
 scenario's 606 intervals x 15 rows (``bench/bench_threads.py``): two threads 0.64-0.66x the
 time of one with no other process running for the one-pair loop (session 6), 0.85-0.96x for
@@ -47,14 +48,13 @@ import numpy as np
 from mmplan.arrays import Array
 from mmplan.compile import codegen, threads
 
-FLAGS = ("-O2", "-march=native", "-fno-trapping-math", "-fvect-cost-model=dynamic", "-pthread")
+FLAGS = ("-O2", "-march=native", "-fno-trapping-math", "-fvect-cost-model=dynamic")
 #: For a compiler that rejects one of :data:`FLAGS` (the loops then stay scalar; same bits).
-FALLBACK = ("-O2", "-pthread")
+FALLBACK = ("-O2",)
 PREFIX = "topp_native"
 
 SOURCE = r"""
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 
 #define BIG 1e30
@@ -139,12 +139,12 @@ static void arrays_of(const slab *s, int m, double *v) {
     }
 }
 
-static void *fixed_pairs(void *arg) {
+static void fixed_pairs(void *arg) {
     fixed_job *J = (fixed_job *)arg;
     int n = J->n, m = 2 * n + 1;
     slab *s = malloc(sizeof(slab) * (size_t)m);
     double *v = malloc(sizeof(double) * 6 * (size_t)m);  /* a, b, lo, hi, acc_lo, acc_hi */
-    if (!s || !v) { free(s); free(v); J->failed = 1; return NULL; }
+    if (!s || !v) { free(s); free(v); J->failed = 1; return; }
     double *a = v, *b = v + m, *lo = v + 2 * m, *hi = v + 3 * m, *acc_lo = v + 4 * m,
            *acc_hi = v + 5 * m;
     for (int i = J->i0; i < J->i1; i++) {
@@ -165,8 +165,10 @@ static void *fixed_pairs(void *arg) {
     }
     free(s);
     free(v);
-    return NULL;
 }
+
+/* void mmplan_pair(task, a, b) of mmplan.compile.threads: task(a) here, task(b) on its worker */
+typedef void (*pair_fn)(void (*task)(void *), void *a, void *b);
 
 /* Intervals from which the fixed pairs are split between two threads. */
 #define SPLIT_FROM 64
@@ -174,7 +176,7 @@ static void *fixed_pairs(void *arg) {
 int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta,
                          const double *g, const double *sigma, const double *x_upper,
                          const double *zone, double k_lo, double k_hi,
-                         double *out_lo, double *out_hi, double *out_empty, int may_split) {
+                         double *out_lo, double *out_hi, double *out_empty, void *pair) {
     int m = 2 * n + 2, count = top + 1;
     slab *s = malloc(sizeof(slab) * (size_t)m);
     double *pre = malloc(sizeof(double) * 2 * (size_t)(count > 0 ? count : 1));
@@ -182,19 +184,14 @@ int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta
     if (!s || !pre || !v) { free(s); free(pre); free(v); return 1; }
     /* phase 1: the pairs without the recursion's slab, on two threads for long paths */
     fixed_job jobs[2];
-    int parts = may_split && count >= SPLIT_FROM ? 2 : 1, half = count / parts;
+    int parts = pair && count >= SPLIT_FROM ? 2 : 1, half = count / parts;
     for (int t = 0; t < parts; t++) {
         fixed_job J = {n, t * half, t + 1 == parts ? count : (t + 1) * half,
                        alpha, beta, g, sigma, x_upper, zone, pre, pre + count, 0};
         jobs[t] = J;
     }
-    pthread_t other;
-    int threaded = parts == 2 && pthread_create(&other, NULL, fixed_pairs, &jobs[1]) == 0;
-    fixed_pairs(&jobs[0]);
-    if (parts == 2) {
-        if (threaded) pthread_join(other, NULL);
-        else fixed_pairs(&jobs[1]);
-    }
+    if (parts == 2) ((pair_fn)pair)(fixed_pairs, &jobs[0], &jobs[1]);
+    else for (int t = 0; t < parts; t++) fixed_pairs(&jobs[t]);
     if (jobs[0].failed || (parts == 2 && jobs[1].failed)) {
         free(s); free(pre); free(v);
         return 1;
@@ -264,7 +261,7 @@ class Kernels:
         # declared arguments: arrays go in as their addresses (ints), without a ctypes
         # pointer object each (72 a plan: ~0.2 ms of the time scaling, measured)
         i, d, p = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
-        self._bw.argtypes = [i, i, p, p, p, p, p, p, d, d, p, p, p, i]
+        self._bw.argtypes = [i, i, p, p, p, p, p, p, d, d, p, p, p, p]
         self._fw.argtypes = [i, i, p, p, p, p, p, p, p, p, d, p]
         #: Split the backward pass's fixed pairs over two threads when a core is idle.
         self.split = True
@@ -278,10 +275,10 @@ class Kernels:
         n = alpha.shape[1]
         out = np.empty((3, top + 1))
         arrays = _contiguous(alpha, beta, g, sigma, x_upper, zone)  # alive during the call
-        split = 1 if self.split and threads.idle_core() else 0
+        pair = _pair() if self.split and threads.idle_core() else None
         base, row = out.ctypes.data, out.strides[0]
         status = self._bw(n, top, *[a.ctypes.data for a in arrays], last[0], last[1],
-                          base, base + row, base + 2 * row, split)  # fmt: skip
+                          base, base + row, base + 2 * row, pair)  # fmt: skip
         if status != 0:
             raise MemoryError("time scaling: no memory for the backward pass")
         return out[0], out[1], out[2]
@@ -298,6 +295,16 @@ class Kernels:
         if status != 0:
             raise MemoryError("time scaling: no memory for the forward pass")
         return x
+
+
+def _pair() -> int | None:
+    """Address of the thread helper's ``mmplan_pair`` (None while it is not loaded: the pass
+    then runs on one thread; :func:`mmplan.compile.threads.prefetch` builds it)."""
+    if not threads.ready():
+        threads.prefetch()
+        return None
+    lib = threads.library()
+    return None if lib is None else lib.pair
 
 
 def _contiguous(*arrays: Array) -> list[Array]:

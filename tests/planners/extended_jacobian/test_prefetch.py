@@ -197,8 +197,10 @@ def test_settle_all_joins_every_guess_whatever_an_idle_task_raises() -> None:
 
 
 def test_each_plan_guesses_its_first_chunk() -> None:
-    """The previous plan's last guess (the chunk after its last) is replaced by the new plan's
-    first chunk (found by review: it stayed in flight, no first-chunk guess)."""
+    """A guess in flight (e.g. a plan's that ended otherwise than at the goal) is replaced by
+    the new plan's first chunk (found by review: it stayed in flight, no first-chunk guess);
+    a plan that reaches the goal guesses no chunk after its last (the worker thread stays
+    free for the time scaling's backward pass)."""
     if cg.compiler() is None:
         pytest.fail("no C compiler on this machine")
     sc = mmplan.load_scenario("youbot3r-obstacles-torque")
@@ -206,15 +208,19 @@ def test_each_plan_guesses_its_first_chunk() -> None:
     planner = mmplan.get_planner(sc.method)()
     planner.plan(problem)
     fns = planner._prepare(problem).fns
-    fns._speculate().switch(True)  # guess whatever the machine's load
-    planner.plan(problem)  # leaves the guess of the chunk after its last in flight
-    assert fns._speculate()._guess is not None
-    prep = planner._prepare(problem, guess=True)
+    spec = fns._speculate()
+    spec.switch(True)  # guess whatever the machine's load
+    hits = spec.hits
+    result = planner.plan(problem)
+    assert result.status.value == "reached" and spec.hits > hits + 5  # chunks were guessed
+    assert spec._guess is None  # ... but none after the one that reached the goal
     n = fns.n
+    spec.guess(np.asarray(spec._native.x, dtype=float) + 1.0)  # one in flight
+    assert spec._guess is not None
+    prep = planner._prepare(problem, guess=True)
     first = np.concatenate(
         [prep.q0, np.zeros(n), prep.params, [1.0, 1.0], np.zeros(n), [prep.options.dt]]
     )
-    spec = fns._speculate()
     assert spec._guess is not None
     np.testing.assert_array_equal(spec._guess, first)
     spec.settle()

@@ -97,7 +97,9 @@ def run(
     else:
         # the chunk after this one, if it may run, starts on a second core meanwhile
         guess = k + 2 * fns.chunk_steps <= steps
-        X, R = fns.run_chunk(q, dq, 1.0, 1.0, np.zeros(n), p, dt, guess_next=guess)
+        X, R = fns.run_chunk(
+            q, dq, 1.0, 1.0, np.zeros(n), p, dt, guess_next=guess, stop_error=opt.stop_error
+        )
         us = ss = ok = np.ones(len(R))
     ddq, tau, err, flag = R[:, :n], R[:, n : n + a], R[:, n + a], R[:, n + a + 1]
     K = len(err)

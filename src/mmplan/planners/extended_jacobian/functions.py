@@ -187,7 +187,7 @@ class GeneratorFunctions:
 
     def run_chunk(
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float,
-        guess_next: bool = False,
+        guess_next: bool = False, stop_error: float = -np.inf,
     ) -> tuple[Array, Array]:
         """``chunk_steps`` steps from (q, dq): states after each step (K, 2n) and the records
         (K, n + n_act + 2) = [ddq, tau, err, f] at each step's start
@@ -195,15 +195,20 @@ class GeneratorFunctions:
 
         ``guess_next``: start the next chunk (from the last state, the same u, s, ext, p, dt)
         on a second core now (compiled only; :mod:`~mmplan.planners.extended_jacobian.
-        prefetch`): a later call with exactly that input takes its result."""
+        prefetch`): a later call with exactly that input takes its result. Not when a step's
+        task error is below ``stop_error`` (the run ends in this chunk: a guess would keep
+        the worker thread busy when the time scaling wants it)."""
         if self.chunk is None:
             raise RuntimeError("no chunk function")
         par = np.concatenate([p, [u, s], ext, [dt]])
         if self.native_chunk is not None:  # ctypes call, no CasADi/DM conversion
-            y = self._native_call(np.concatenate([q, dq, par]), guess_next)
+            x = np.concatenate([q, dq, par])
+            y = self._native_call(x)
             n, K, a = self.n, self.chunk_steps, self.n_act
             X = y[: 2 * n * K].reshape(K, 2 * n)
             R = y[2 * n * K : len(y) - n * n - 2 * a * K].reshape(K, -1)
+            if guess_next and not R[:, n + a].min() < stop_error:
+                self._guess_after(x, y)
             return X, R
         X, R = self.chunk(np.concatenate([q, dq]), par)
         return np.asarray(X).T, np.asarray(R).T
@@ -239,11 +244,13 @@ class GeneratorFunctions:
         """The native chunk's calls (prefetch.py; kept on the compiled function)."""
         return speculation_of(self.native_chunk)
 
-    def _native_call(self, x: Array, guess_next: bool = False) -> Array:
+    def _native_call(self, x: Array) -> Array:
         self._last = y = self._speculate().call(x)
-        if guess_next:
-            m = 2 * self.n
-            after = np.array(x)
-            after[:m] = y[m * (self.chunk_steps - 1) : m * self.chunk_steps]  # last state
-            self._speculate().guess(after)
         return y
+
+    def _guess_after(self, x: Array, y: Array) -> None:
+        """Start the chunk after the one at x (output y) on a second core."""
+        m = 2 * self.n
+        after = np.array(x)
+        after[:m] = y[m * (self.chunk_steps - 1) : m * self.chunk_steps]  # last state
+        self._speculate().guess(after)
