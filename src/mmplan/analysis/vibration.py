@@ -42,7 +42,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -96,10 +95,10 @@ class VibrationResult:
 
 def ee_acceleration(robot: Robot, q: Array, dq: Array, ddq: Array) -> Array:
     """Planned end-effector acceleration J(q) ddq + dJ/dt dq, (N, 3), from (N, n) samples."""
-    s = robot.symbols
-    jdq = s.jacobian @ s.dq
-    acc = s.jacobian @ s.ddq + ca.jtimes(jdq, s.q, s.dq)
-    fn = ca.Function("ee_acceleration", [s.q, s.dq, s.ddq], [acc]).map(len(q))
+    natives = robot.compiled()  # the robot's compiled library, when on disk: no model built
+    if natives is not None:  # laid out as the mapped call's (N, 3) view: the same sums below
+        return np.ascontiguousarray(natives.many("ee_acceleration", q, dq, ddq).T).T
+    fn = robot.functions["ee_acceleration"].map(len(q))
     return np.asarray(fn(q.T, dq.T, ddq.T), dtype=float).T
 
 

@@ -334,6 +334,13 @@ def load(names: Sequence[str], library: str) -> list[ca.Function]:
     return [ca.external(name, library) for name in names]
 
 
+@lru_cache(maxsize=64)
+def _cdll(path: str) -> ctypes.CDLL:
+    """The library at ``path`` loaded once per process (its functions share one handle; a
+    file replaced or removed later does not change what was loaded)."""
+    return ctypes.CDLL(path)
+
+
 class _Pattern:
     """A sparsity pattern as CasADi's generated code writes it: [rows, cols, 1] when dense,
     else [rows, cols, column starts (cols + 1), row of each nonzero]."""
@@ -371,7 +378,7 @@ class NativeFunction:
     """
 
     def __init__(self, library: str, name: str) -> None:
-        lib = ctypes.CDLL(library)
+        lib = _cdll(library)
         cint = ctypes.c_longlong if lib.mmplan_gen_casadi_int_size() == 8 else ctypes.c_int
         sizes = [cint() for _ in range(4)]
         getattr(lib, f"{name}_work")(*(ctypes.byref(x) for x in sizes))

@@ -76,11 +76,21 @@ def extent(robot: Robot, start: Array) -> tuple[Array, float]:
     # cost 7-8 ms a plan, a quarter of a warm youbot-3r plan); the mapped functions are kept
     # per robot model (building them cost 2-5 ms a plan)
     K, P = Q.shape[1], len(robot.collision)
-    ee_map, points_map = _MAPS.get_or_build(robot.symbols, K, lambda: _maps(robot, K))
-    ee = np.asarray(ee_map(Q), dtype=float).reshape(3, K)
-    pts = np.zeros((3, K, 0))
-    if points_map is not None:
-        pts = np.asarray(points_map(Q), dtype=float).reshape(3, K, P)
+    natives = robot.compiled()
+    if natives is not None:  # compiled, one point a call: no symbolic model needed
+        # C order as the mapped call's: NumPy's reductions below sum in memory order (a
+        # transposed view gave a centroid one ulp off)
+        ee = np.ascontiguousarray(natives.many("ee_position", Q.T).T)  # (3, K)
+        pts = np.zeros((3, K, P))
+        if P:
+            flat = natives.many("collision_points", Q.T).reshape(K, P, 3)
+            pts = np.ascontiguousarray(flat.transpose(2, 0, 1))
+    else:
+        ee_map, points_map = _MAPS.get_or_build(robot.symbols, K, lambda: _maps(robot, K))
+        ee = np.asarray(ee_map(Q), dtype=float).reshape(3, K)
+        pts = np.zeros((3, K, 0))
+        if points_map is not None:
+            pts = np.asarray(points_map(Q), dtype=float).reshape(3, K, P)
     allpts = np.concatenate([pts, ee[:, :, None]], axis=2)  # (3, K, P + 1)
     radii = np.append(robot.collision_radii, 0.0)
     b = allpts[:, 0, :].mean(axis=1)

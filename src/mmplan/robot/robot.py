@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike
 
 from mmplan.arrays import Array
 from mmplan.errors import InputError, ModelError, require
+from mmplan.robot import compiled as robot_compiled
 from mmplan.robot import dynamics
 from mmplan.robot.bases import Platform
 from mmplan.robot.limits import Limits
@@ -88,6 +89,8 @@ class Symbols:
     manipulability: ca.SX
     collision_points: ca.SX
     tau: ca.SX = field(default_factory=lambda: ca.SX())
+    #: Planned end-effector acceleration J ddq + (dJ/dt) dq (3,) [m/s^2].
+    ee_acceleration: ca.SX = field(default_factory=lambda: ca.SX())
 
 
 #: Robot.functions: name -> (the Symbols fields of its inputs, of its output).
@@ -102,6 +105,7 @@ _FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
     "manipulability": (("q",), "manipulability"),
     "collision_points": (("q",), "collision_points"),
     "tau": (("q", "dq", "ddq"), "tau"),
+    "ee_acceleration": (("q", "dq", "ddq"), "ee_acceleration"),
 }
 
 
@@ -259,7 +263,8 @@ class Robot:
         points = [T[s.body][:3, :3] @ ca.DM(s.center) + T[s.body][:3, 3] for s in self.collision]
         P = ca.horzcat(*points) if points else ca.SX(3, 0)
         tau = ca.solve(N.T @ B, N.T @ (M @ ddq + c))
-        return Symbols(q, dq, ddq, T, ee, T_ee[:3, :3], J, J_a, A, N, B, M, c, mu, P, tau)
+        acc = J @ ddq + ca.jtimes(J @ dq, q, dq)
+        return Symbols(q, dq, ddq, T, ee, T_ee[:3, :3], J, J_a, A, N, B, M, c, mu, P, tau, acc)
 
     @property
     def functions(self) -> Mapping[str, ca.Function]:
@@ -281,7 +286,18 @@ class Robot:
             )
         return arr
 
+    def compiled(self) -> robot_compiled.Natives | None:
+        """This model's functions compiled to C when their library is on disk
+        (:mod:`mmplan.robot.compiled`; looked up once per model), else None."""
+        return robot_compiled.natives(self, self._shared)
+
     def _call(self, fn: str, *args: Array) -> Array:
+        """``functions[fn]`` at one point: compiled when the robot's library is on disk
+        (:mod:`mmplan.robot.compiled`: no symbolic model needed, the same numbers), else on
+        the virtual machine."""
+        natives = self.compiled() if fn in robot_compiled.NAMES else None
+        if natives is not None:
+            return natives.call(fn, *args)
         return np.asarray(self.functions[fn](*args), dtype=float)
 
     def ee_position(self, q: ArrayLike) -> Array:
