@@ -152,8 +152,7 @@ def natives(robot: Any, shared: dict[str, Any]) -> Natives | None:
     if path is not None:
         try:
             found = Natives(path)
-            for name in NAMES:  # every function loaded now: a bad file is the VM
-                found.function(name)
+            found.function(NAMES[0])  # loads the file: a bad one is the virtual machine
         except (OSError, AttributeError, RuntimeError, ValueError):
             found = None
     shared["natives"] = (folder, found)

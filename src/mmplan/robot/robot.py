@@ -297,7 +297,10 @@ class Robot:
         the virtual machine."""
         natives = self.compiled() if fn in robot_compiled.NAMES else None
         if natives is not None:
-            return natives.call(fn, *args)
+            try:
+                return natives.call(fn, *args)
+            except (AttributeError, RuntimeError, ValueError):  # a symbol missing from the file
+                pass
         return np.asarray(self.functions[fn](*args), dtype=float)
 
     def ee_position(self, q: ArrayLike) -> Array:
