@@ -167,3 +167,52 @@ def test_a_forked_child_gets_its_own_worker(cache: Path) -> None:
     assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0
     job.start()  # the parent's worker still serves it
     assert job.wait() == 0
+
+
+def test_a_job_started_twice_is_waited_for_and_the_worker_stays_free(cache: Path) -> None:
+    """A second start before the wait waits for the first (found by review: it ran the job
+    here on the buffers the worker was writing, and the worker stayed claimed for good)."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native, other = _native(), _native()
+    job, second = threads.Job(*native.signature()), threads.Job(*other.signature())
+    native.x[:] = [0.1, 2.0, -0.3, 1.5]
+    want = native().copy()
+    native.y[:] = np.nan
+    job.start()
+    job.start()
+    assert job.wait() == 0
+    np.testing.assert_array_equal(native.y, want)
+    lib = threads.library()
+    assert lib is not None
+    assert lib.start(second._job) == 1  # posted to the worker: it is free again
+    assert second.wait() == 0
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
+def test_a_child_forked_while_the_worker_is_busy_gets_a_worker(cache: Path) -> None:
+    """The worker claimed by a job in flight at the fork is free in the child (an atfork
+    handler; found by review: the child's posts all ran in the caller)."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native, other = _native(), _native()
+    job, second = threads.Job(*native.signature()), threads.Job(*other.signature())
+    other.x[:] = [0.7, 0.2, 0.1, -1.0]
+    want = other().copy()
+    lib = threads.library()
+    assert lib is not None
+    job.start()  # in flight (or just done) at the fork: the worker is claimed
+    pid = os.fork()
+    if pid == 0:
+        code = 1
+        try:
+            signal.alarm(20)
+            other.y[:] = np.nan
+            posted = lib.start(second._job)
+            ok = second.wait() == 0 and np.array_equal(other.y, want)
+            code = 0 if ok and posted == 1 else 1
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert job.wait() == 0
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0

@@ -108,16 +108,31 @@ static void *worker(void *unused) {
     return NULL;
 }
 
+/* In a forked child: no worker thread (it stayed in the parent), a free worker slot, fresh
+   lock and condition (the parent may have held them), and DONE for a task posted before the
+   fork (its wait returns at once; the job's result code says it did not run). */
+static void after_fork_child(void) {
+    W.running = 0;
+    atomic_store(&W.busy, 0);
+    atomic_store(&W.spinning, 0);
+    atomic_store(&W.state, DONE);
+    pthread_mutex_init(&W.mu, NULL);
+    pthread_cond_init(&W.cv, NULL);
+}
+
+static pthread_once_t at_fork_once = PTHREAD_ONCE_INIT;
+static void register_at_fork(void) { pthread_atfork(NULL, NULL, after_fork_child); }
+
 /* Post task(data) to the worker: 1 when posted (then mmplan_task_wait), 0 when the worker
    is another poster's now or no thread can start (the caller runs the task itself). */
 int mmplan_task_post(void (*task)(void *), void *data) {
     if (atomic_exchange(&W.busy, 1)) return 0;
-    if (W.running && W.owner != getpid()) {  /* forked: the thread stayed in the parent */
-        W.running = 0;
-        pthread_mutex_init(&W.mu, NULL);
-        pthread_cond_init(&W.cv, NULL);
+    if (W.running && W.owner != getpid()) {  /* a child whose atfork handler did not run */
+        after_fork_child();
+        atomic_store(&W.busy, 1);  /* still this caller's */
     }
     if (!W.running) {
+        pthread_once(&at_fork_once, register_at_fork);
         atomic_store(&W.state, IDLE);
         W.owner = getpid();
         W.running = pthread_create(&W.thread, NULL, worker, NULL) == 0;
@@ -161,7 +176,10 @@ int mmplan_spinning(void) { return atomic_load(&W.spinning); }
 /* the signature of a function of CasADi's generated code (casadi_int passed as void*) */
 typedef int (*mmplan_fn)(const double **arg, double **res, void *iw, double *w, int mem);
 
-typedef struct {
+typedef struct mmplan_job mmplan_job;
+int mmplan_job_wait(mmplan_job *j);
+
+struct mmplan_job {
     mmplan_fn f;
     const double **arg;
     double **res;
@@ -171,7 +189,7 @@ typedef struct {
     int ret;
     int started;  /* a start whose wait has not come yet */
     int posted;   /* ... running on the worker */
-} mmplan_job;
+};
 
 static void job_run(void *p) {
     mmplan_job *j = (mmplan_job *)p;
@@ -191,8 +209,11 @@ mmplan_job *mmplan_job_new(void *f, void *arg, void *res, void *iw, void *w, int
     return j;
 }
 
-/* 1: posted to the worker; 0: evaluated here (the worker busy, or no thread) */
+/* 1: posted to the worker; 0: evaluated here (the worker busy, or no thread). A job started
+   again before its wait is waited for first (else it would run here while the worker runs it
+   on the same buffers, and the worker would stay claimed). */
 int mmplan_job_start(mmplan_job *j) {
+    if (j->started) mmplan_job_wait(j);
     j->started = 1;
     j->posted = mmplan_task_post(job_run, j);
     if (!j->posted) job_run(j);

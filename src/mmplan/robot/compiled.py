@@ -21,6 +21,7 @@ machine to the bit (tests/robot/test_compiled.py), so a plan does not change wit
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping, Sequence
 from threading import Thread
 from typing import Any
@@ -92,6 +93,9 @@ class Natives:
         self.path = path
         self._fns: dict[str, codegen.NativeFunction] = {}
         self._externals: dict[str, ca.Function] = {}
+        # a function has one set of buffers and ctypes lets other threads run during the
+        # call: one caller at a time (two threads on one robot gave wrong results, review)
+        self._lock = threading.Lock()
 
     def function(self, name: str) -> codegen.NativeFunction:
         """The compiled function ``name`` (loaded at its first use)."""
@@ -103,32 +107,37 @@ class Natives:
     def call(self, name: str, *args: Array) -> Array:
         """``name`` at one point: its inputs (each (n,)) in, its output as the virtual machine
         gives it (a full (rows, cols) array)."""
-        fn = self.function(name)
-        x = fn.x
-        at = 0
-        for a in args:
-            x[at : at + len(a)] = a
-            at += len(a)
-        fn()
-        return fn.dense()
+        with self._lock:
+            fn = self.function(name)
+            x = fn.x
+            at = 0
+            for a in args:
+                x[at : at + len(a)] = a
+                at += len(a)
+            if at != len(x):
+                raise ValueError(f"{name}: {at} input values for {len(x)}")
+            fn()
+            return fn.dense()
 
     def many(self, name: str, *args: Array) -> Array:
         """``name`` at N points: its inputs as (N, n) arrays, its outputs (N, rows * cols),
-        each row the output's entries column after column (one ctypes call a point: 2.5 us
+        each row the full output's entries column after column (a sparse output scattered
+        into its matrix first; one ctypes call a point: 2.5 us
         for youbot-3r's collision points, where a mapped ``casadi.external`` spent 20 ms on
         600 points, most in converting its output)."""
-        fn = self.function(name)
-        if fn.pattern.rows is not None:
-            raise ValueError(f"{name}: a sparse output")
         cols = [np.asarray(a, dtype=float) for a in args]
         N = len(cols[0]) if cols else 0
         inputs = np.hstack(cols) if cols else np.zeros((0, 0))
-        out = np.empty((N, fn.y.size))
-        x, y = fn.x, fn.y
-        for k in range(N):
-            x[:] = inputs[k]
-            fn()
-            out[k] = y
+        with self._lock:
+            fn = self.function(name)
+            x, y, pattern = fn.x, fn.y, fn.pattern
+            if inputs.shape[1:] != x.shape:
+                raise ValueError(f"{name}: {inputs.shape[1:]} input values for {len(x)}")
+            out = np.empty((N, pattern.shape[0] * pattern.shape[1]))
+            for k in range(N):
+                x[:] = inputs[k]
+                fn()
+                out[k] = y if pattern.rows is None else pattern.dense(y).ravel(order="F")
         return out
 
     def externals(self, names: Sequence[str] = NAMES) -> dict[str, ca.Function]:

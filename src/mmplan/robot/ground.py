@@ -48,8 +48,11 @@ def ground_sphere_indices(robot: Robot) -> tuple[int, ...]:
             )  # fmt: skip
 
         def decode(data: object) -> tuple[int, ...]:
-            if not isinstance(data, list) or not all(isinstance(i, int) for i in data):
-                raise ValueError("not a list of sphere indices")
+            P = len(robot.collision)
+            if not isinstance(data, list) or not all(
+                type(i) is int and 0 <= i < P for i in data
+            ) or data != sorted(set(data)):
+                raise ValueError("not increasing sphere indices of this robot")
             return tuple(data)
 
         cached = remember(robot, __file__, "ground_spheres", 0, compute, list, decode)
