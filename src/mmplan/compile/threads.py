@@ -29,6 +29,7 @@ spinning worker (measured: 2.7-3.9 ms a plan instead of 1.5).
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import os
 import threading
@@ -61,6 +62,8 @@ static struct {
     atomic_int state;
     atomic_int busy;
     atomic_int spinning;
+    int wake;      /* spin again without a task (mmplan_wake; under mu) */
+    atomic_int wakes;  /* wakes the worker acted on asleep (tests) */
     int running;   /* the thread exists (in the process owner) */
     pid_t owner;
     pthread_mutex_t mu;
@@ -82,20 +85,26 @@ static void relax(void) {
 #endif
 }
 
-/* Spin SPIN_S seconds for the next task, then sleep until one is posted. */
+/* Spin SPIN_S seconds for the next task, then sleep until one is posted (or until a wake,
+   which starts another SPIN_S of spinning). */
 static void next_task(void) {
-    double until = now() + SPIN_S;
-    int n = 0;
-    atomic_store(&W.spinning, 1);
-    while (atomic_load_explicit(&W.state, memory_order_acquire) != POSTED) {
-        relax();
-        if (++n % 256 == 0 && now() > until) break;
+    for (;;) {
+        double until = now() + SPIN_S;
+        int n = 0;
+        atomic_store(&W.spinning, 1);
+        while (atomic_load_explicit(&W.state, memory_order_acquire) != POSTED) {
+            relax();
+            if (++n % 256 == 0 && now() > until) break;
+        }
+        atomic_store(&W.spinning, 0);
+        if (atomic_load_explicit(&W.state, memory_order_acquire) == POSTED) return;
+        pthread_mutex_lock(&W.mu);
+        while (atomic_load(&W.state) != POSTED && !W.wake) pthread_cond_wait(&W.cv, &W.mu);
+        if (W.wake) atomic_fetch_add(&W.wakes, 1);
+        W.wake = 0;
+        pthread_mutex_unlock(&W.mu);
+        if (atomic_load_explicit(&W.state, memory_order_acquire) == POSTED) return;
     }
-    atomic_store(&W.spinning, 0);
-    if (atomic_load_explicit(&W.state, memory_order_acquire) == POSTED) return;
-    pthread_mutex_lock(&W.mu);
-    while (atomic_load(&W.state) != POSTED) pthread_cond_wait(&W.cv, &W.mu);
-    pthread_mutex_unlock(&W.mu);
 }
 
 static void *worker(void *unused) {
@@ -116,6 +125,7 @@ static void after_fork_child(void) {
     atomic_store(&W.busy, 0);
     atomic_store(&W.spinning, 0);
     atomic_store(&W.state, DONE);
+    W.wake = 0;
     pthread_mutex_init(&W.mu, NULL);
     pthread_cond_init(&W.cv, NULL);
 }
@@ -125,11 +135,11 @@ static void register_at_fork(void) { pthread_atfork(NULL, NULL, after_fork_child
 
 /* Post task(data) to the worker: 1 when posted (then mmplan_task_wait), 0 when the worker
    is another poster's now or no thread can start (the caller runs the task itself). */
-int mmplan_task_post(void (*task)(void *), void *data) {
-    if (atomic_exchange(&W.busy, 1)) return 0;
+/* The worker thread exists (started now when not; the caller holds busy): 1, else 0. */
+static int ensure_worker(void) {
     if (W.running && W.owner != getpid()) {  /* a child whose atfork handler did not run */
         after_fork_child();
-        atomic_store(&W.busy, 1);  /* still this caller's */
+        atomic_store(&W.busy, 1);  /* still the caller's */
     }
     if (!W.running) {
         pthread_once(&at_fork_once, register_at_fork);
@@ -138,7 +148,12 @@ int mmplan_task_post(void (*task)(void *), void *data) {
         W.running = pthread_create(&W.thread, NULL, worker, NULL) == 0;
         if (W.running) pthread_detach(W.thread);
     }
-    if (!W.running) {
+    return W.running;
+}
+
+int mmplan_task_post(void (*task)(void *), void *data) {
+    if (atomic_exchange(&W.busy, 1)) return 0;
+    if (!ensure_worker()) {
         atomic_store(&W.busy, 0);
         return 0;
     }
@@ -149,6 +164,20 @@ int mmplan_task_post(void (*task)(void *), void *data) {
     pthread_cond_signal(&W.cv);
     pthread_mutex_unlock(&W.mu);
     return 1;
+}
+
+/* Have the worker spin for SPIN_S from now (started when it does not exist), so that a task
+   posted within that time starts at once: a worker asleep on an idle virtual CPU took
+   0.1-0.5 ms to start. Returns at once; nothing when the worker is another caller's. */
+void mmplan_wake(void) {
+    if (atomic_exchange(&W.busy, 1)) return;
+    if (ensure_worker()) {
+        pthread_mutex_lock(&W.mu);
+        W.wake = 1;
+        pthread_cond_signal(&W.cv);
+        pthread_mutex_unlock(&W.mu);
+    }
+    atomic_store(&W.busy, 0);
 }
 
 /* Wait for the task posted last (by this caller) and release the worker. */
@@ -172,6 +201,8 @@ void mmplan_pair(void (*task)(void *), void *a, void *b) {
 }
 
 int mmplan_spinning(void) { return atomic_load(&W.spinning); }
+
+int mmplan_wakes(void) { return atomic_load(&W.wakes); }
 
 /* the signature of a function of CasADi's generated code (casadi_int passed as void*) */
 typedef int (*mmplan_fn)(const double **arg, double **res, void *iw, double *w, int mem);
@@ -288,6 +319,10 @@ class _Library:
         lib.mmplan_job_start.argtypes = [vp]
         lib.mmplan_job_wait.argtypes = [vp]
         lib.mmplan_spinning.argtypes = []
+        lib.mmplan_wake.argtypes = []
+        lib.mmplan_wake.restype = None
+        lib.mmplan_wakes.argtypes = []
+        self.wake, self.wakes = lib.mmplan_wake, lib.mmplan_wakes
         #: Address of ``void mmplan_pair(void (*task)(void *), void *a, void *b)`` for other
         #: libraries' C (task(a) here, task(b) on the worker).
         self.pair = ctypes.cast(lib.mmplan_pair, ctypes.c_void_p).value
@@ -315,12 +350,37 @@ def ready() -> bool:
 
 def prefetch() -> None:
     """Build the helper in a background thread when it is not on disk (once per machine,
-    about 0.1 s; a caller that meets it unbuilt goes without it, :func:`ready`)."""
+    about 0.1 s; a caller that meets it unbuilt goes without it, :func:`ready`). The process
+    waits for that build when it exits (:func:`_finish_build`)."""
     if _PENDING or ready() or codegen.compiler() is None:
         return
     thread = threading.Thread(target=library, daemon=True)
     thread.start()
     _PENDING.append(thread)
+
+
+def _finish_build() -> None:
+    """At exit, wait for a build :func:`prefetch` started (about 0.1-0.2 s, once per machine):
+    found by a new-user trial, ``mmplan plan`` ended its process before the build was done,
+    so the helper was never on disk and no plan of the command used the second core (its
+    warm plans 0.85x as fast without it)."""
+    for thread in _PENDING:
+        thread.join(timeout=30.0)
+
+
+atexit.register(_finish_build)
+
+
+def wake() -> None:
+    """Have the worker thread spin for its next task from now (started if need be), when the
+    helper is loaded or on disk and a core is idle: a task posted within :data:`SPIN_S`
+    then starts at once. A planner calls it when it starts preparing a plan whose first
+    chunk it will post."""
+    if cores() < 2 or not ready() or not idle_core():
+        return
+    lib = library()
+    if lib is not None:
+        lib.wake()
 
 
 class Job:
