@@ -220,35 +220,6 @@ def test_a_child_forked_while_the_worker_is_busy_gets_a_worker(cache: Path) -> N
     assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0
 
 
-def test_a_wake_starts_the_worker_spinning_without_a_task(cache: Path) -> None:
-    """mmplan_wake starts the worker (or wakes it) and returns at once; a job posted after it
-    is served by the worker and computes what the direct call computes."""
-    if cg.compiler() is None:
-        pytest.fail("no C compiler on this machine")
-    native = _native()
-    lib = threads.library()
-    assert lib is not None
-    job = threads.Job(*native.signature())
-    native.x[:] = [1.0, 0.5, -0.2, 0.3]
-    want = native().copy()
-    for pause in (0.0, 3 * threads.SPIN_S):  # spinning, then asleep when the wake comes
-        time.sleep(pause)
-        woken = lib.wakes()
-        lib.wake()
-        if pause:  # it was asleep: the wake gets it out of its sleep
-            deadline = time.monotonic() + 5.0
-            while lib.wakes() == woken and time.monotonic() < deadline:
-                time.sleep(1e-3)
-            assert lib.wakes() == woken + 1
-        native.y[:] = np.nan
-        assert lib.start(job._job) == 1
-        assert job.wait() == 0
-        np.testing.assert_array_equal(native.y, want)
-    lib.start(job._job)  # the worker claimed: a wake now does nothing
-    lib.wake()
-    assert job.wait() == 0
-
-
 def test_a_process_that_exits_waits_for_the_helpers_build(tmp_path: Path) -> None:
     """A build started in the background is finished when the process exits (found by a
     new-user trial: `mmplan plan` exited first, so the helper never reached the disk)."""

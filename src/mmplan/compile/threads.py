@@ -62,8 +62,6 @@ static struct {
     atomic_int state;
     atomic_int busy;
     atomic_int spinning;
-    int wake;      /* spin again without a task (mmplan_wake; under mu) */
-    atomic_int wakes;  /* wakes the worker acted on asleep (tests) */
     int running;   /* the thread exists (in the process owner) */
     pid_t owner;
     pthread_mutex_t mu;
@@ -85,26 +83,20 @@ static void relax(void) {
 #endif
 }
 
-/* Spin SPIN_S seconds for the next task, then sleep until one is posted (or until a wake,
-   which starts another SPIN_S of spinning). */
+/* Spin SPIN_S seconds for the next task, then sleep until one is posted. */
 static void next_task(void) {
-    for (;;) {
-        double until = now() + SPIN_S;
-        int n = 0;
-        atomic_store(&W.spinning, 1);
-        while (atomic_load_explicit(&W.state, memory_order_acquire) != POSTED) {
-            relax();
-            if (++n % 256 == 0 && now() > until) break;
-        }
-        atomic_store(&W.spinning, 0);
-        if (atomic_load_explicit(&W.state, memory_order_acquire) == POSTED) return;
-        pthread_mutex_lock(&W.mu);
-        while (atomic_load(&W.state) != POSTED && !W.wake) pthread_cond_wait(&W.cv, &W.mu);
-        if (W.wake) atomic_fetch_add(&W.wakes, 1);
-        W.wake = 0;
-        pthread_mutex_unlock(&W.mu);
-        if (atomic_load_explicit(&W.state, memory_order_acquire) == POSTED) return;
+    double until = now() + SPIN_S;
+    int n = 0;
+    atomic_store(&W.spinning, 1);
+    while (atomic_load_explicit(&W.state, memory_order_acquire) != POSTED) {
+        relax();
+        if (++n % 256 == 0 && now() > until) break;
     }
+    atomic_store(&W.spinning, 0);
+    if (atomic_load_explicit(&W.state, memory_order_acquire) == POSTED) return;
+    pthread_mutex_lock(&W.mu);
+    while (atomic_load(&W.state) != POSTED) pthread_cond_wait(&W.cv, &W.mu);
+    pthread_mutex_unlock(&W.mu);
 }
 
 static void *worker(void *unused) {
@@ -125,7 +117,6 @@ static void after_fork_child(void) {
     atomic_store(&W.busy, 0);
     atomic_store(&W.spinning, 0);
     atomic_store(&W.state, DONE);
-    W.wake = 0;
     pthread_mutex_init(&W.mu, NULL);
     pthread_cond_init(&W.cv, NULL);
 }
@@ -135,11 +126,11 @@ static void register_at_fork(void) { pthread_atfork(NULL, NULL, after_fork_child
 
 /* Post task(data) to the worker: 1 when posted (then mmplan_task_wait), 0 when the worker
    is another poster's now or no thread can start (the caller runs the task itself). */
-/* The worker thread exists (started now when not; the caller holds busy): 1, else 0. */
-static int ensure_worker(void) {
+int mmplan_task_post(void (*task)(void *), void *data) {
+    if (atomic_exchange(&W.busy, 1)) return 0;
     if (W.running && W.owner != getpid()) {  /* a child whose atfork handler did not run */
         after_fork_child();
-        atomic_store(&W.busy, 1);  /* still the caller's */
+        atomic_store(&W.busy, 1);  /* still this caller's */
     }
     if (!W.running) {
         pthread_once(&at_fork_once, register_at_fork);
@@ -148,12 +139,7 @@ static int ensure_worker(void) {
         W.running = pthread_create(&W.thread, NULL, worker, NULL) == 0;
         if (W.running) pthread_detach(W.thread);
     }
-    return W.running;
-}
-
-int mmplan_task_post(void (*task)(void *), void *data) {
-    if (atomic_exchange(&W.busy, 1)) return 0;
-    if (!ensure_worker()) {
+    if (!W.running) {
         atomic_store(&W.busy, 0);
         return 0;
     }
@@ -164,20 +150,6 @@ int mmplan_task_post(void (*task)(void *), void *data) {
     pthread_cond_signal(&W.cv);
     pthread_mutex_unlock(&W.mu);
     return 1;
-}
-
-/* Have the worker spin for SPIN_S from now (started when it does not exist), so that a task
-   posted within that time starts at once: a worker asleep on an idle virtual CPU took
-   0.1-0.5 ms to start. Returns at once; nothing when the worker is another caller's. */
-void mmplan_wake(void) {
-    if (atomic_exchange(&W.busy, 1)) return;
-    if (ensure_worker()) {
-        pthread_mutex_lock(&W.mu);
-        W.wake = 1;
-        pthread_cond_signal(&W.cv);
-        pthread_mutex_unlock(&W.mu);
-    }
-    atomic_store(&W.busy, 0);
 }
 
 /* Wait for the task posted last (by this caller) and release the worker. */
@@ -201,8 +173,6 @@ void mmplan_pair(void (*task)(void *), void *a, void *b) {
 }
 
 int mmplan_spinning(void) { return atomic_load(&W.spinning); }
-
-int mmplan_wakes(void) { return atomic_load(&W.wakes); }
 
 /* the signature of a function of CasADi's generated code (casadi_int passed as void*) */
 typedef int (*mmplan_fn)(const double **arg, double **res, void *iw, double *w, int mem);
@@ -319,10 +289,6 @@ class _Library:
         lib.mmplan_job_start.argtypes = [vp]
         lib.mmplan_job_wait.argtypes = [vp]
         lib.mmplan_spinning.argtypes = []
-        lib.mmplan_wake.argtypes = []
-        lib.mmplan_wake.restype = None
-        lib.mmplan_wakes.argtypes = []
-        self.wake, self.wakes = lib.mmplan_wake, lib.mmplan_wakes
         #: Address of ``void mmplan_pair(void (*task)(void *), void *a, void *b)`` for other
         #: libraries' C (task(a) here, task(b) on the worker).
         self.pair = ctypes.cast(lib.mmplan_pair, ctypes.c_void_p).value
@@ -369,18 +335,6 @@ def _finish_build() -> None:
 
 
 atexit.register(_finish_build)
-
-
-def wake() -> None:
-    """Have the worker thread spin for its next task from now (started if need be), when the
-    helper is loaded or on disk and a core is idle: a task posted within :data:`SPIN_S`
-    then starts at once. A planner calls it when it starts preparing a plan whose first
-    chunk it will post."""
-    if cores() < 2 or not ready() or not idle_core():
-        return
-    lib = library()
-    if lib is not None:
-        lib.wake()
 
 
 class Job:

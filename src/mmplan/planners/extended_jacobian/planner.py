@@ -33,7 +33,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mmplan.compile import codegen as cg
-from mmplan.compile import threads
 from mmplan.errors import InputError
 from mmplan.planners.base import Planner, register
 from mmplan.planners.extended_jacobian import cache as ej_cache
@@ -168,8 +167,6 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         robot, task = problem.robot, problem.task
         if not isinstance(task, ReachPoint):
             raise InputError("goal", f"the {cls.method} planner needs {ReachPoint.goal_form}")
-        if guess:  # the worker thread spins meanwhile: the first chunk starts at once
-            threads.wake()
         q0 = ej_checks.check_start(robot, problem.start)
         p_f = np.asarray(task.position, dtype=float)
         ej_checks.check_goal(robot, p_f)
