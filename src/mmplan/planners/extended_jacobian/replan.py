@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mmplan.arrays import Array
+from mmplan.compile import codegen as cg
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian import cache as ej_cache
 from mmplan.planners.extended_jacobian import checks as ej_checks
@@ -86,7 +87,7 @@ class Replanner:
         return ej_cache.generator(
             self.robot, partition, self.slots, s.penalty_weight, s.varrho,
             s.arm_gradient_weight, s.codegen if codegen is None else codegen, self.posture,
-            self.heading,
+            self.heading, notify=cg.notice,  # a first compile says so, as plan() does
         ).fns  # fmt: skip
 
     def params(self, q: Array, scene: Any, goal: Array) -> tuple[Array, Partition]:
