@@ -12,8 +12,8 @@ code that makes the functions. When it is on disk the numeric API calls it throu
 else the virtual machine, as before. The checker maps the same library's functions over a
 plan's samples (:mod:`mmplan.verify.native`).
 
-Built by :func:`start_build` (``mmplan plan`` and ``mmplan check`` start it in the background
-while they plan or check, so that the next run finds it), for models of at most
+Built by :func:`start_build` (``mmplan plan`` starts it in the background while it plans and
+waits for it at its end, so that the next run finds it), for models of at most
 :data:`MAX_INSTRUCTIONS` operations. The same expression graphs compiled with
 ``-ffp-contract=off`` (:data:`mmplan.compile.codegen.FIXED_FLAGS`): the numbers of the virtual
 machine to the bit (tests/robot/test_compiled.py), so a plan does not change with the cache.
@@ -22,7 +22,7 @@ machine to the bit (tests/robot/test_compiled.py), so a plan does not change wit
 from __future__ import annotations
 
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from threading import Thread
 from typing import Any
 
@@ -168,11 +168,6 @@ def natives(robot: Any, shared: dict[str, Any]) -> Natives | None:
     return found
 
 
-def forget(shared: Mapping[str, Any]) -> None:
-    """Look for the library again at the next call (after :func:`start_build` finished)."""
-    if isinstance(shared, dict):
-        shared.pop("natives", None)
 
-
-__all__ = ["FLAGS", "MAX_INSTRUCTIONS", "NAMES", "Natives", "cached_library", "forget",
-           "library_key", "natives", "size", "start_build"]
+__all__ = ["FLAGS", "MAX_INSTRUCTIONS", "NAMES", "Natives", "cached_library", "library_key",
+           "natives", "size", "start_build"]
