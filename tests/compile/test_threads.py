@@ -222,11 +222,16 @@ def test_a_child_forked_while_the_worker_is_busy_gets_a_worker(cache: Path) -> N
 
 def test_a_process_that_exits_waits_for_the_helpers_build(tmp_path: Path) -> None:
     """A build started in the background is finished when the process exits (found by a
-    new-user trial: `mmplan plan` exited first, so the helper never reached the disk)."""
+    new-user trial: `mmplan plan` exited first, so the helper never reached the disk). The
+    process's own temporary folder registers the weakref finalizers' exit hook after the
+    helper's: it runs first and, when the build used a TemporaryDirectory, removed the build's
+    folder under the compiler (CI)."""
     if cg.compiler() is None:
         pytest.fail("no C compiler on this machine")
     env = dict(os.environ, MMPLAN_CACHE=str(tmp_path))
-    code = "from mmplan.compile import threads; threads.prefetch(); print(len(threads._PENDING))"
+    code = ("import tempfile; from mmplan.compile import threads; "
+            "keep = tempfile.TemporaryDirectory(); "
+            "threads.prefetch(); print(len(threads._PENDING))")  # fmt: skip
     run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          timeout=120, check=True)  # fmt: skip
     assert run.stdout.strip() == "1"  # started in the background, not finished

@@ -220,17 +220,25 @@ def _build(
     """Compile ``source`` into ``library`` (atomic rename); False on failure. A large
     generated source is cut into units compiled in parallel (:func:`_units`; the one-file
     build if that fails); every build adds :data:`FIXED_FLAGS`."""
+    # mkdtemp and rmtree, not TemporaryDirectory: its weakref finalizer runs at interpreter
+    # exit, possibly before the exit handler that waits for a background build
+    # (:func:`mmplan.compile.threads.prefetch`), and removed the folder under the compiler
+    # (measured: 20 of 30 processes that exited during the build left no library)
+    tmp = ""
     try:
         library.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=library.parent) as tmp:
-            so_file = Path(tmp) / f"{prefix}.so"
-            units = _units(source, cold)
-            tries = [units, [Unit(source)]] if len(units) > 1 else [units]
-            if not any(_compile(cc, u, so_file, [*flags, *FIXED_FLAGS]) for u in tries):
-                return False
-            os.replace(so_file, library)
+        tmp = tempfile.mkdtemp(dir=library.parent)
+        so_file = Path(tmp) / f"{prefix}.so"
+        units = _units(source, cold)
+        tries = [units, [Unit(source)]] if len(units) > 1 else [units]
+        if not any(_compile(cc, u, so_file, [*flags, *FIXED_FLAGS]) for u in tries):
+            return False
+        os.replace(so_file, library)
     except (OSError, subprocess.SubprocessError):
         return False
+    finally:
+        if tmp:
+            shutil.rmtree(tmp, ignore_errors=True)
     return True
 
 
