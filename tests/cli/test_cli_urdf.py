@@ -38,6 +38,23 @@ def test_robots_lists_real_robots_as_not_installed_without_their_files(
     assert described["youbot-3r"].startswith("KUKA youBot")
 
 
+def test_scenarios_say_which_robots_are_not_installed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A TIAGo scenario is not "installed" without example-robot-data (found by a new-user
+    trial: the method was installed, the robot was not); names whole in a pipe."""
+    monkeypatch.setattr(robot_data, "_candidates", lambda: [])  # example-robot-data "missing"
+    result = run("scenarios")
+    assert result.exit_code == 0, result.output
+    rows = [[c.strip() for c in line.split("│")[1:-1]] for line in result.stdout.splitlines()
+            if line.startswith("│")]  # fmt: skip
+    installed = {cells[0]: (cells[1], cells[3]) for cells in rows}
+    assert installed["tiago-table"] == ("tiago", "no")
+    assert installed["diffdrive3-track"] == ("diffdrive-3dof", "yes")  # not cut in a pipe
+    assert installed["youbot3r-obstacles-torque"][1] == "yes"
+    reason = [line for line in result.stdout.splitlines() if line.startswith("not installed")]
+    assert len(reason) == 1 and "tiago-table" in reason[0] and "ur5-omni-table" in reason[0]
+    assert reason[0].endswith("pip install 'mmplan[robots]'")
+
+
 def tiago_scenario(urdf: str = TIAGO) -> dict[str, Any]:
     return {
         "name": "tiago-drive",

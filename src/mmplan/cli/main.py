@@ -19,6 +19,7 @@ import click
 import mmplan
 from mmplan.cli.output import (
     err,
+    made,
     out,
     print_check,
     print_export,
@@ -168,6 +169,7 @@ def robots() -> None:
         from rich.table import Table
 
         table = Table("robot", "n", "h", "coordinates", "description")
+        table.columns[0].no_wrap = True  # a name a user types: never cut
         rates = Table("robot", "velocity limits (m/s, rad/s)", "acceleration limits (/s^2)",
                       caption="sources of the numbers: docs/conventions.md, Limits")
         for name in mmplan.robot_names():
@@ -185,24 +187,41 @@ def robots() -> None:
 
 @main.command()
 def scenarios() -> None:
-    """List the built-in scenarios (robot, planning method, whether the method is installed)."""
+    """List the built-in scenarios (robot, planning method, whether both are installed here)."""
     with _user_errors():
+        from rich.markup import escape
         from rich.table import Table
 
+        from mmplan.robot.library import unavailable
+
         table = Table()
-        table.add_column("scenario", no_wrap=True)  # names are what a user types: never cut
-        table.add_column("robot", overflow="fold")
-        table.add_column("method", overflow="fold")
-        table.add_column("installed", overflow="fold")
+        for column in ("scenario", "robot", "method", "installed"):  # names a user types:
+            table.add_column(column, no_wrap=True)  # never cut (the reasons follow the table)
         available = set(mmplan.methods())
+        robots = set(mmplan.robot_names())
+        reasons: dict[str, list[str]] = {}
         for name, path in mmplan.builtin_scenarios().items():
             try:
                 robot, method = mmplan.scenario_header(path)
             except mmplan.InputError as exc:
-                table.add_row(name, "?", "?", f"invalid file: {exc.problem}")
+                table.add_row(name, "?", "?", "no")
+                reasons.setdefault(f"invalid file: {exc.problem}", []).append(name)
                 continue
-            table.add_row(name, robot, method, "yes" if method in available else "no")
-        out.print(table)
+            missing = unavailable(robot) if robot in robots else None
+            if method not in available:
+                missing = f"the {method} planner is not installed"
+            table.add_row(name, robot, method, "yes" if missing is None else "no")
+            if missing is not None:
+                reasons.setdefault(missing, []).append(name)
+        # a pipe or a file gets the names whole, however wide (a terminal: its width)
+        console = made(out)
+        if not console.is_terminal:
+            from rich.console import Console
+
+            console = Console(file=console.file, width=1000, highlight=False)
+        console.print(table)
+        for reason, names in reasons.items():
+            out.print(escape(f"not installed ({', '.join(names)}): {reason}"))
 
 
 @main.command()

@@ -34,6 +34,29 @@ def robot_names() -> list[str]:
     return list(_BUILDERS)
 
 
+def unavailable(name: str) -> str | None:
+    """Why :func:`get_robot` cannot build the built-in robot ``name`` here (one line), None
+    when it can. Builds nothing: a robot from example-robot-data (its module names its
+    ``URDF``) needs that file, the others nothing.
+
+    Raises:
+        UnknownNameError: ``name`` is not a built-in robot.
+    """
+    from mmplan.errors import InputError
+    from mmplan.robot.robot_data import robot_data_file
+
+    if name not in _BUILDERS:
+        raise UnknownNameError("robot", f"unknown robot {name!r}; choose one of {robot_names()}")
+    relative = getattr(import_module(f"{__name__}.{_BUILDERS[name]}"), "URDF", None)
+    if relative is None:
+        return None
+    try:
+        robot_data_file(str(relative))
+    except InputError as exc:
+        return exc.problem
+    return None
+
+
 def get_robot(name: str) -> Robot:
     """The built-in robot ``name`` (built once per process, then shared).
 
