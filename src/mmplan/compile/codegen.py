@@ -12,6 +12,7 @@ Without a compiler, or when compiling fails, the caller keeps the CasADi virtual
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import hashlib
 import os
@@ -307,10 +308,30 @@ def start_build(
     if cc is None or library.exists():
         return None
     source = _source(make())
-    thread = threading.Thread(target=_build, args=(cc, source, library, prefix, flags, cold),
-                              daemon=True)  # fmt: skip
+    return in_background(_build, cc, source, library, prefix, flags, cold)
+
+
+#: Builds started by :func:`in_background`, waited for when the process exits.
+_BACKGROUND: list[threading.Thread] = []
+
+
+def in_background(target: Callable[..., object], *args: Any) -> threading.Thread:
+    """Run a build ``target(*args)`` on a thread of its own, now; the process waits for it
+    when it exits (an exit handler, which ``mmplan`` commands run before their fast exit).
+    Found by a new-user trial: ``mmplan plan`` ended before the second-core helper's build
+    was done, so the helper never reached the disk and no command used the second core."""
+    thread = threading.Thread(target=target, args=args, daemon=True)
     thread.start()
+    _BACKGROUND.append(thread)
     return thread
+
+
+def _finish_builds() -> None:
+    for thread in _BACKGROUND:
+        thread.join(timeout=60.0)
+
+
+atexit.register(_finish_builds)
 
 
 def compile_function(

@@ -29,7 +29,6 @@ spinning worker (measured: 2.7-3.9 ms a plan instead of 1.5).
 
 from __future__ import annotations
 
-import atexit
 import ctypes
 import os
 import threading
@@ -121,24 +120,10 @@ def ready() -> bool:
 def prefetch() -> None:
     """Build the helper in a background thread when it is not on disk (once per machine,
     about 0.1 s; a caller that meets it unbuilt goes without it, :func:`ready`). The process
-    waits for that build when it exits (:func:`_finish_build`)."""
+    waits for that build when it exits (:func:`mmplan.compile.codegen.in_background`)."""
     if _PENDING or ready() or codegen.compiler() is None:
         return
-    thread = threading.Thread(target=library, daemon=True)
-    thread.start()
-    _PENDING.append(thread)
-
-
-def _finish_build() -> None:
-    """At exit, wait for a build :func:`prefetch` started (about 0.1-0.2 s, once per machine):
-    found by a new-user trial, ``mmplan plan`` ended its process before the build was done,
-    so the helper was never on disk and no plan of the command used the second core (its
-    warm plans 0.85x as fast without it)."""
-    for thread in _PENDING:
-        thread.join(timeout=30.0)
-
-
-atexit.register(_finish_build)
+    _PENDING.append(codegen.in_background(library))
 
 
 class Job:

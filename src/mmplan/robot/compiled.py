@@ -122,9 +122,9 @@ class Natives:
     def many(self, name: str, *args: Array) -> Array:
         """``name`` at N points: its inputs as (N, n) arrays, its outputs (N, rows * cols),
         each row the full output's entries column after column (a sparse output scattered
-        into its matrix first; one ctypes call a point: 2.5 us
-        for youbot-3r's collision points, where a mapped ``casadi.external`` spent 20 ms on
-        600 points, most in converting its output)."""
+        into its matrix first; one ctypes call a point: 2.5 us for youbot-3r's collision
+        points, where a mapped ``casadi.external`` spent 20 ms on 600 points, most in
+        converting its output)."""
         cols = [np.asarray(a, dtype=float) for a in args]
         N = len(cols[0]) if cols else 0
         inputs = np.hstack(cols) if cols else np.zeros((0, 0))
@@ -166,7 +166,6 @@ def natives(robot: Any, shared: dict[str, Any]) -> Natives | None:
             found = None
     shared["natives"] = (folder, found)
     return found
-
 
 
 __all__ = ["FLAGS", "MAX_INSTRUCTIONS", "NAMES", "Natives", "cached_library", "library_key",

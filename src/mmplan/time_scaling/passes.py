@@ -243,9 +243,7 @@ def prefetch() -> None:
     are used after it). A no-op when they are cached or being built, or without a compiler."""
     if not _missing() or _on_disk():  # on disk: loaded at first use or by :func:`load`
         return
-    thread = threading.Thread(target=_load_both, daemon=True)
-    thread.start()
-    _PENDING.append(thread)
+    _PENDING.append(codegen.in_background(_load_both))
 
 
 def _missing() -> bool:

@@ -38,17 +38,11 @@ NAMES = ("ee_position", "collision_points", "tau", "pfaffian", "manipulability")
 
 @dataclass
 class _Entry:
-    key: str
-    functions: dict[str, ca.Function] | None = None
+    functions: dict[str, ca.Function] | None = None  # loaded at the first check
 
 
 #: The robots inside a :func:`compiled_checks` block (held weakly).
 _ENTRIES: WeakKeyDictionary[Robot, _Entry] = WeakKeyDictionary()
-
-
-def library_key(robot: Robot) -> str:
-    """Disk-cache key of the robot's compiled library (:mod:`mmplan.robot.compiled`)."""
-    return robot_compiled.library_key(robot)
 
 
 def check_functions(robot: Robot) -> Mapping[str, ca.Function]:
@@ -83,9 +77,8 @@ def compiled_checks(robot: Robot, *, build: bool = False) -> Iterator[None]:
     if codegen.compiler() is None:
         yield
         return
-    key = library_key(robot)
     outer = _ENTRIES.get(robot)
-    _ENTRIES[robot] = _Entry(key)
+    _ENTRIES[robot] = _Entry()
     thread: Thread | None = robot_compiled.start_build(robot) if build else None
     try:
         yield
@@ -108,4 +101,4 @@ def library_path(robot: Robot) -> Path | None:
 
 
 __all__ = ["FLAGS", "MAX_INSTRUCTIONS", "NAMES", "check_functions", "compiled_checks",
-           "library_key", "library_path"]
+           "library_path"]
