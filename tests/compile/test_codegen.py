@@ -55,6 +55,43 @@ def test_native_call_equals_the_casadi_call(cache: Path) -> None:
         np.testing.assert_array_equal(native().copy(), np.asarray(_function()(x)).ravel())
 
 
+def test_one_described_call_equals_the_symbol_lookups(cache: Path) -> None:
+    """mmplan_describe (one C call) gives what the symbol-by-symbol lookup gives: work sizes,
+    patterns (a sparse output, long enough to need a second call), memory, the function."""
+    a, b = ca.SX.sym("a", 2), ca.SX.sym("b", 300)
+    sparse = ca.Function("mmplan_test_sparse", [a, b], [ca.diag(b * a[0] + a[1])])
+    library = cg.compile_library([_function(), sparse], "t", ("-O0",))
+    assert library is not None
+    lib = cg._cdll(library)
+    for name in ("mmplan_test_fn", "mmplan_test_sparse"):
+        described = cg._described(lib, library, name)
+        looked_up = cg._looked_up(lib, name)
+        assert described is not None
+        assert described[0] is looked_up[0] and described[1] == looked_up[1]
+        for p, q in zip([*described[2], described[3]], [*looked_up[2], looked_up[3]],
+                        strict=True):  # fmt: skip
+            assert p.shape == q.shape and p.nnz == q.nnz
+            if q.rows is not None:
+                np.testing.assert_array_equal(p.rows, q.rows)
+                np.testing.assert_array_equal(p.cols, q.cols)
+        assert ctypes_address(described[4]) == ctypes_address(looked_up[4])
+    assert described[3].nnz == 300 and described[3].rows is not None
+    native = cg.NativeFunction(library, "mmplan_test_sparse")
+    x = np.random.default_rng(1).normal(size=302)
+    native.x[:] = x
+    expected = np.asarray(sparse(x[:2], x[2:]).full())
+    native()
+    np.testing.assert_array_equal(native.dense(), expected)
+    with pytest.raises(AttributeError, match="no function"):
+        cg.NativeFunction(library, "mmplan_test_absent")
+
+
+def ctypes_address(function: object) -> int:
+    import ctypes
+
+    return int(ctypes.cast(function, ctypes.c_void_p).value or 0)
+
+
 def test_a_library_for_the_native_cpu_is_keyed_by_the_cpu(
     cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -70,15 +70,92 @@ def _source(functions: Sequence[ca.Function]) -> str:
     gen = ca.CodeGenerator("mmplan_gen.c", {"with_header": False})
     for f in functions:
         gen.add(f)
-    return str(gen.dump())
+    return str(gen.dump()) + _describer([f.name() for f in functions])
+
+
+#: Numbers :func:`_describer`'s function writes before the sparsity patterns.
+_HEAD = 8
+_DESCRIBE_ONE = """
+#include <string.h>
+/* mmplan: what codegen.NativeFunction needs of an exported function, in one call (its work
+   sizes, its memory, the sparsity of its inputs and of its first output): ctypes looked up
+   six symbols and called each once, 0.15-0.2 ms a function in a new process. out: [0] the
+   numbers written (or needed, when more than cap), [1] sizeof(casadi_int), [2..5] the work
+   sizes, [6] inputs, [7] the checked-out memory, then the patterns as CasADi stores them. */
+__attribute__((visibility("hidden"))) void* mmplan_describe_one(long long* out, long long cap,
+    int (*work)(casadi_int*, casadi_int*, casadi_int*, casadi_int*), casadi_int (*n_in)(void),
+    const casadi_int* (*sp_in)(casadi_int), const casadi_int* (*sp_out)(casadi_int),
+    void (*incref)(void), int (*checkout)(void), void* fn) {
+  casadi_int sz[4], i, k, n = n_in(), len, at = %(head)d;
+  const casadi_int* sp;
+  for (i = 0; i <= n; ++i) {
+    sp = i < n ? sp_in(i) : sp_out(0);
+    at += sp[2] == 1 ? 3 : 3 + sp[1] + sp[2 + sp[1]];
+  }
+  out[0] = at;
+  if (at > cap) return 0;
+  work(sz, sz + 1, sz + 2, sz + 3);
+  out[1] = (long long) sizeof(casadi_int);
+  for (k = 0; k < 4; ++k) out[2 + k] = sz[k];
+  out[6] = n;
+  at = %(head)d;
+  for (i = 0; i <= n; ++i) {
+    sp = i < n ? sp_in(i) : sp_out(0);
+    len = sp[2] == 1 ? 3 : 3 + sp[1] + sp[2 + sp[1]];
+    for (k = 0; k < len; ++k) out[at + k] = sp[k];
+    at += len;
+  }
+  incref();
+  out[7] = checkout();
+  return fn;
+}
+"""
+
+
+def _describer(names: Sequence[str]) -> str:
+    """C appended to a generated library: ``mmplan_describe(name, out, cap)``, everything
+    :class:`NativeFunction` needs of the function ``name`` in one call (a null pointer and
+    ``out[0] = -1`` for a name the library does not export)."""
+    cases = "".join(
+        f'  if (!strcmp(name, "{n}")) return mmplan_describe_one(out, cap, {n}_work, {n}_n_in, '
+        f"{n}_sparsity_in, {n}_sparsity_out, {n}_incref, {n}_checkout, (void*) {n});\n"
+        for n in names
+    )
+    return (
+        _DESCRIBE_ONE % {"head": _HEAD}
+        + "CASADI_SYMBOL_EXPORT void* mmplan_describe(const char* name, long long* out, "
+        + "long long cap) {\n"
+        + cases
+        + "  out[0] = -1;\n  return 0;\n}\n"
+    )
 
 
 def _library(source: str, prefix: str, flags: Sequence[str]) -> Path:
+    cpu = host() if native_flags(flags) else ""  # -march=native: this CPU's code
+    if len(source) > _REMEMBERED:  # a generated source, asked for once or twice
+        return cache_dir() / _file_name(source, prefix, tuple(flags), cpu)
+    return cache_dir() / _remembered_name(source, prefix, tuple(flags), cpu)
+
+
+#: Longest source (or key) whose library name is remembered (:func:`_remembered_name`).
+_REMEMBERED = 65_536
+
+
+def _file_name(source: str, prefix: str, flags: tuple[str, ...], cpu: str) -> str:
+    """The library's file name: a hash of its source (or key), flags, CasADi's version and
+    the CPU (:func:`host`, for -march=native code; else empty)."""
     parts = [source, *flags, *FIXED_FLAGS, ca.CasadiMeta.version()]
-    if native_flags(flags):
-        parts.append(host())
+    if cpu:
+        parts.append(cpu)
     key = "\n".join(parts)
-    return cache_dir() / f"{prefix}_{hashlib.sha256(key.encode()).hexdigest()[:20]}.so"
+    return f"{prefix}_{hashlib.sha256(key.encode()).hexdigest()[:20]}.so"
+
+
+@lru_cache(maxsize=64)
+def _remembered_name(source: str, prefix: str, flags: tuple[str, ...], cpu: str) -> str:
+    """:func:`_file_name`, remembered: a process asks 3-4 times for each of the time
+    scaling's and the thread helper's libraries (their 9-30 kB sources hashed each time)."""
+    return _file_name(source, prefix, flags, cpu)
 
 
 def native_flags(flags: Sequence[str]) -> bool:
@@ -389,12 +466,85 @@ class _Pattern:
         cols = np.repeat(np.arange(ncol), np.diff(starts))
         return cls((nrow, ncol), rows, cols)
 
+    @classmethod
+    def parse(cls, numbers: NDArray[np.int64], at: int) -> tuple[_Pattern, int]:
+        """The pattern stored at ``numbers[at:]`` (as :meth:`read`) and where the next starts."""
+        nrow, ncol = int(numbers[at]), int(numbers[at + 1])
+        if int(numbers[at + 2]) == 1:
+            return cls((nrow, ncol)), at + 3
+        starts = numbers[at + 2 : at + 3 + ncol]
+        nnz = int(starts[-1])
+        rows = numbers[at + 3 + ncol : at + 3 + ncol + nnz].astype(np.intp)
+        cols = np.repeat(np.arange(ncol), np.diff(starts))
+        return cls((nrow, ncol), rows, cols), at + 3 + ncol + nnz
+
     def dense(self, values: NDArray[np.float64]) -> NDArray[np.float64]:
         if self.rows is None:
             return np.array(values).reshape(self.shape, order="F")
         out = np.zeros(self.shape)
         out[self.rows, self.cols] = values
         return out
+
+
+#: A described function: casadi_int's ctypes type, the work sizes (arg, res, iw, w), the
+#: input patterns, the first output's pattern, the ctypes function and its memory.
+_Described = tuple[Any, tuple[int, int, int, int], list[_Pattern], _Pattern, Any, int]
+
+
+@lru_cache(maxsize=64)
+def _describe(path: str) -> Any:
+    """The library's ``mmplan_describe`` (:func:`_describer`), None when it has none."""
+    try:
+        describe = _cdll(path).mmplan_describe
+    except AttributeError:
+        return None
+    describe.restype = ctypes.c_void_p
+    describe.argtypes = (ctypes.c_char_p, ctypes.c_void_p, ctypes.c_longlong)
+    return describe
+
+
+def _described(lib: ctypes.CDLL, path: str, name: str) -> _Described | None:
+    """What :class:`NativeFunction` needs of ``name``, from one call of the library's
+    ``mmplan_describe``; None when the library has none. Raises AttributeError when the
+    library does not export ``name`` (as a symbol lookup does)."""
+    describe = _describe(path)
+    if describe is None:
+        return None
+    out = np.zeros(256, dtype=np.int64)
+    address = describe(name.encode(), out.ctypes.data, len(out))
+    if not address and out[0] > len(out):  # long sparsity patterns
+        out = np.zeros(int(out[0]), dtype=np.int64)
+        address = describe(name.encode(), out.ctypes.data, len(out))
+    if not address:
+        raise AttributeError(f"{path}: no function {name}")
+    cint = ctypes.c_longlong if int(out[1]) == 8 else ctypes.c_int
+    sizes = tuple(max(1, int(x)) for x in out[2:6])
+    patterns, at = [], _HEAD
+    for _ in range(int(out[6]) + 1):  # the inputs, then the first output
+        pattern, at = _Pattern.parse(out, at)
+        patterns.append(pattern)
+    function = lib._FuncPtr(address)  # as getattr(lib, name), without the symbol lookup
+    return cint, sizes, patterns[:-1], patterns[-1], function, int(out[7])  # type: ignore[return-value]
+
+
+def _looked_up(lib: ctypes.CDLL, name: str) -> _Described:
+    """What :class:`NativeFunction` needs of ``name``, symbol by symbol (a library without
+    ``mmplan_describe``)."""
+    cint = ctypes.c_longlong if lib.mmplan_gen_casadi_int_size() == 8 else ctypes.c_int
+    sizes = [cint() for _ in range(4)]
+    getattr(lib, f"{name}_work")(*(ctypes.byref(x) for x in sizes))
+    count = getattr(lib, f"{name}_n_in")
+    count.restype = cint
+    sparsity = getattr(lib, f"{name}_sparsity_in")
+    sparsity.restype = ctypes.POINTER(cint)
+    ins = [_Pattern.read(sparsity(i)) for i in range(int(count()))]
+    sparsity = getattr(lib, f"{name}_sparsity_out")
+    sparsity.restype = ctypes.POINTER(cint)
+    out = _Pattern.read(sparsity(0))
+    getattr(lib, f"{name}_incref")()
+    mem = int(getattr(lib, f"{name}_checkout")())
+    work = tuple(max(1, int(x.value)) for x in sizes)
+    return cint, work, ins, out, getattr(lib, name), mem  # type: ignore[return-value]
 
 
 class NativeFunction:
@@ -408,18 +558,10 @@ class NativeFunction:
 
     def __init__(self, library: str, name: str) -> None:
         lib = _cdll(library)
-        cint = ctypes.c_longlong if lib.mmplan_gen_casadi_int_size() == 8 else ctypes.c_int
-        sizes = [cint() for _ in range(4)]
-        getattr(lib, f"{name}_work")(*(ctypes.byref(x) for x in sizes))
-        n_arg, n_res, n_iw, n_w = (max(1, int(x.value)) for x in sizes)
-        count = getattr(lib, f"{name}_n_in")
-        count.restype = cint
-        sparsity = getattr(lib, f"{name}_sparsity_in")
-        sparsity.restype = ctypes.POINTER(cint)
-        ins = [_Pattern.read(sparsity(i)) for i in range(int(count()))]
-        sparsity = getattr(lib, f"{name}_sparsity_out")
-        sparsity.restype = ctypes.POINTER(cint)
-        self.pattern = _Pattern.read(sparsity(0))
+        described = _described(lib, library, name)
+        if described is None:  # a library built without mmplan_describe
+            described = _looked_up(lib, name)
+        cint, (n_arg, n_res, n_iw, n_w), ins, self.pattern, self._fn, self._mem = described
         dbl = ctypes.POINTER(ctypes.c_double)
         self.x, self.y = np.zeros(sum(p.nnz for p in ins)), np.zeros(self.pattern.nnz)
         self._w, self._iw = np.zeros(n_w), (cint * n_iw)()
@@ -432,9 +574,6 @@ class NativeFunction:
             at += p.nnz
         self._res[0] = self.y.ctypes.data_as(dbl)
         self._w_ptr = self._w.ctypes.data_as(dbl)
-        getattr(lib, f"{name}_incref")()
-        self._mem = int(getattr(lib, f"{name}_checkout")())
-        self._fn = getattr(lib, name)
         self._lib = lib
 
     def dense(self) -> NDArray[np.float64]:

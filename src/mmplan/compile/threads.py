@@ -91,12 +91,14 @@ class _Library:
         lib.mmplan_job_free.restype = None
         lib.mmplan_job_start.argtypes = [vp]
         lib.mmplan_job_wait.argtypes = [vp]
+        lib.mmplan_job_done.argtypes = [vp]
         lib.mmplan_spinning.argtypes = []
         #: Address of ``void mmplan_pair(void (*task)(void *), void *a, void *b)`` for other
         #: libraries' C (task(a) here, task(b) on the worker).
         self.pair = ctypes.cast(lib.mmplan_pair, ctypes.c_void_p).value
         self.new, self.free = lib.mmplan_job_new, lib.mmplan_job_free
         self.start, self.wait = lib.mmplan_job_start, lib.mmplan_job_wait
+        self.done = lib.mmplan_job_done
         self.spinning = lib.mmplan_spinning
 
 
@@ -162,6 +164,10 @@ class Job:
         since the last wait)."""
         self.running = False
         return int(self._lib.wait(self._job))
+
+    def done(self) -> bool:
+        """The evaluation is over (:meth:`wait` returns at once)."""
+        return bool(self._lib.done(self._job))
 
     def close(self) -> None:
         """Wait for a job in flight and free the job (idempotent)."""

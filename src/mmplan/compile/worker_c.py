@@ -199,6 +199,12 @@ int mmplan_job_wait(mmplan_job *j) {
     return ret;
 }
 
+/* 1 when the job's evaluation is over (its wait returns at once), 0 while the worker runs it. */
+int mmplan_job_done(mmplan_job *j) {
+    if (!j->started || !j->posted) return 1;
+    return atomic_load_explicit(&W.state, memory_order_acquire) == DONE;
+}
+
 /* Waits for a job in flight, then frees it. */
 void mmplan_job_free(mmplan_job *j) {
     if (!j) return;

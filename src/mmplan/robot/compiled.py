@@ -57,7 +57,7 @@ def library_key(robot: Any) -> str:
     """Disk-cache key of the robot's library: its model and the code of the functions."""
     from mmplan.robot import robot as robot_module  # robot.py imports this module
 
-    code = source_fingerprint([robot_module.__file__ or "", __file__])
+    code = source_fingerprint([robot_module.__file__ or "", __file__, codegen.__file__])
     return f"{robot_fingerprint(robot)}|{code}|{','.join(NAMES)}"
 
 

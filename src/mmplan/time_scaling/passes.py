@@ -266,8 +266,26 @@ def load() -> None:
     """Load the C loops when they are on disk (a caller with idle time: the rollout waiting
     for its compiled chunks, :mod:`mmplan.planners.extended_jacobian.prefetch`); else leave
     them to :func:`prefetch` or the first scaling."""
-    if _missing() and _on_disk():
-        _load_both()
+    load_passes()
+    load_peaks()
+
+
+def load_passes() -> None:
+    """:func:`load`'s first half: the passes of :mod:`.native` (one idle wait may not hold
+    both)."""
+    if _missing() and codegen.source_is_cached(native.SOURCE, native.PREFIX, native.FLAGS,
+                                               native.FALLBACK):  # fmt: skip
+        native.kernels()
+
+
+def load_peaks() -> None:
+    """:func:`load`'s second half: the step peaks of :mod:`.native_peaks`."""
+    if (
+        not (_PENDING or native_peaks.peaks.cache_info().currsize or codegen.compiler() is None)
+        and codegen.source_is_cached(native_peaks.SOURCE, native_peaks.PREFIX,
+                                     native_peaks.FLAGS, native_peaks.FALLBACK)
+    ):  # fmt: skip
+        native_peaks.peaks()
 
 
 def _native() -> native.Kernels | None:

@@ -101,10 +101,16 @@ def test_a_guess_in_flight_is_joined_before_its_buffers_go() -> None:
     assert spec._guess is None and spec.misses == 2
 
 
-def test_waiting_for_a_guess_runs_the_idle_tasks_once() -> None:
+def test_waiting_for_a_running_guess_runs_the_idle_tasks_once() -> None:
+    """Idle tasks run while a guess computes, not when it is over (a process's first plan:
+    the first chunk was done before the rollout asked, and the task ran on the plan's path)."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    import time
+
     from mmplan.planners.extended_jacobian import prefetch
 
-    native, spec = _native_and_own()
+    spec = Speculation(_Slow(), enabled=True)  # 50 ms a call
     ran: list[int] = []
 
     def task() -> None:
@@ -112,12 +118,16 @@ def test_waiting_for_a_guess_runs_the_idle_tasks_once() -> None:
 
     prefetch.while_waiting(task)
     prefetch.while_waiting(task)  # once
-    x = native.x.copy()
+    x = np.array([3.0])
     spec.call(x)  # no guess in flight: nothing to wait for, the task waits
     assert ran == []
     spec.guess(x)
-    spec.call(x)
-    assert ran == [1] and spec.hits == 1
+    time.sleep(0.2)  # the guess is over: its wait returns at once, the task waits
+    np.testing.assert_array_equal(spec.call(x), [6.0])
+    assert ran == [] and spec.hits == 1
+    spec.guess(x)
+    np.testing.assert_array_equal(spec.call(x), [6.0])  # running: the task runs meanwhile
+    assert ran == [1] and spec.hits == 2
     spec.guess(x)
     spec.call(x)
     assert ran == [1]

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.compile.disk_memo import remember
 from mmplan.errors import InputError
@@ -107,7 +108,7 @@ def check_start_clearance(
 def check_conditioning(fns: GeneratorFunctions, q0: Array, p: Array, cond_limit: float) -> None:
     """E(q0) must be well conditioned (eq. (16) needs E^-1); p: the generator parameters."""
     E = fns.E_at(q0, p)
-    cond = float(np.linalg.cond(E))
+    cond = linalg.cond(E)
     if not np.isfinite(cond) or cond > cond_limit:
         raise InputError("start", f"E(q0) is singular (cond {cond:.3g} > {cond_limit:.3g})")
 

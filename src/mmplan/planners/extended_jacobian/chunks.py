@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import divergence
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
@@ -124,7 +125,7 @@ def run(
     E0 = fns.chunk_start_E() if not opt.torque_control else None
     if E0 is None:
         E0 = fns.E_at(q, p)
-    cond = float(np.linalg.cond(E0))
+    cond = linalg.cond(E0)
     switching = wants_switch is not None and wants_switch(q, cond, E0)
     if not np.isfinite(cond) or cond > opt.cond_limit or switching:
         return none  # the loop decides at sample k

@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian.posture import heading_term, posture_term
@@ -102,7 +103,7 @@ def choose_partition(robot: Robot, q0: Array) -> Partition:
             )
             for arm in arms:
                 R = platform + arm
-                cond = float(np.linalg.cond(Jc[:, list(R)]))
+                cond = linalg.cond(Jc[:, list(R)])
                 if not set(arm) <= set(revolute):
                     cond *= PRISMATIC_IN_R  # only when no revolute choice is near as good
                 if np.isfinite(cond) and (best is None or cond < 0.999 * best[0]):
@@ -140,11 +141,11 @@ def repartition(
     """
     Jc = stacked_jacobian(robot, q)
     n_r = Jc.shape[0]
-    now = float(np.linalg.cond(Jc[:, list(current.R)]))
+    now = linalg.cond(Jc[:, list(current.R)])
     prismatic = {i for i in robot.arm_indices if _prismatic(robot, i)}
     best: tuple[float, tuple[int, ...]] | None = None
     for R in itertools.combinations(range(robot.n), n_r):
-        cond = float(np.linalg.cond(Jc[:, list(R)]))
+        cond = linalg.cond(Jc[:, list(R)])
         if prismatic & set(R):
             cond *= PRISMATIC_IN_R
         if np.isfinite(cond) and (best is None or cond < best[0]):

@@ -35,9 +35,9 @@ ONSET_FACTOR = 10.0
 def insane(dq: Array, ddq: Array) -> Array:
     """Per sample (rows of dq, ddq (N, n)): not finite, or a rate over its bound (N,)."""
     dq, ddq = np.atleast_2d(dq), np.atleast_2d(ddq)
-    with np.errstate(invalid="ignore"):
-        bad = ~np.all(np.isfinite(dq), axis=1) | ~np.all(np.isfinite(ddq), axis=1)
-        bad |= np.any(np.abs(dq) > DQ_MAX, axis=1) | np.any(np.abs(ddq) > DDQ_MAX, axis=1)
+    # NaN and inf fail the comparisons too: one test per array (the rollout asks every chunk;
+    # 12 us a 50-sample chunk instead of 48 with separate finiteness tests, measured)
+    bad = ~np.all(np.abs(dq) <= DQ_MAX, axis=1) | ~np.all(np.abs(ddq) <= DDQ_MAX, axis=1)
     out: Array = bad
     return out
 

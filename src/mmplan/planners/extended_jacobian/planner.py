@@ -195,7 +195,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         )
         if time_scaling or options.rates is not None:  # the passes compile alongside the
             topp_passes.prefetch()  # generator, or load while the first chunk computes
-            ej_prefetch.while_waiting(topp_passes.load)
+            ej_prefetch.while_waiting(topp_passes.load_passes)
+            ej_prefetch.while_waiting(topp_passes.load_peaks)
         built = ej_cache.generator(
             robot,
             partition,

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import chunks as ej_fastpath
 from mmplan.planners.extended_jacobian import divergence
@@ -88,7 +89,7 @@ def _cond(fns: GeneratorFunctions, q: Array, p: Array) -> float | None:
     if not np.all(np.isfinite(q)):
         return None
     E = fns.E_at(q, p)
-    return float(np.linalg.cond(E)) if np.all(np.isfinite(E)) else None
+    return linalg.cond(E) if np.all(np.isfinite(E)) else None
 
 
 def _projector(A: Array, winv: Array) -> Array:
@@ -162,7 +163,7 @@ def rollout(
             break
         if k % opt.cond_every == 0:
             E = fns.E_at(q, p)
-            cond = float(np.linalg.cond(E))
+            cond = linalg.cond(E)
             factor = None
             if switch is not None and switches < opt.max_switches:
                 factor = switch.wanted(q, cond, E)
@@ -173,7 +174,7 @@ def rollout(
                     p = fns.layout.retarget(p, switch.partitions[-1])
                     out = fns.evaluate(q, dq, p)
                     f0, fv = out.f0, out.fv
-                    cond = float(np.linalg.cond(fns.E_at(q, p)))
+                    cond = linalg.cond(fns.E_at(q, p))
             max_cond = max(max_cond, cond)
             if not np.isfinite(cond) or cond > opt.cond_limit:
                 status, message = Status.DIVERGED, f"cond(E) = {cond:.3g} at t = {t:.3f} s"

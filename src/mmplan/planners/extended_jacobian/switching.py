@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.criterion import Partition, repartition, stacked_jacobian
 from mmplan.planners.extended_jacobian.functions import GeneratorFunctions
@@ -64,7 +65,7 @@ class PartitionSwitch:
         else:
             h = self.robot.h
             Jc = np.vstack([E[:3], E[len(E) - h :]]) if h else E[:3]
-        return float(np.linalg.cond(Jc[:, list(self.partitions[-1].R)]))
+        return linalg.cond(Jc[:, list(self.partitions[-1].R)])
 
     def wanted(self, q: Array, cond_E: float, E: Array | None = None) -> float | None:
         """The improvement factor a switch at q needs, None when no trigger fires (``E``: the
