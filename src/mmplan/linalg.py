@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike
+from mmplan.arrays import Array
 
 
-def cond(matrix: ArrayLike) -> float:
+def cond(matrix: Array) -> float:
     """The 2-norm condition number, largest over smallest singular value: the value
     :func:`numpy.linalg.cond` returns (the same singular values, the same division; inf for
     a singular matrix, NaN only when the matrix holds one).
@@ -19,7 +19,7 @@ def cond(matrix: ArrayLike) -> float:
     s = np.linalg.svd(matrix, compute_uv=False)
     largest, smallest = float(s[0]), float(s[-1])
     if smallest == 0.0 or math.isnan(smallest) or math.isnan(largest):
-        if np.isnan(np.asarray(matrix)).any():
+        if np.isnan(matrix).any():
             return math.nan
         return math.inf
     return largest / smallest
