@@ -279,6 +279,8 @@ def test_retime_holds_the_interpolant_between_samples_too() -> None:
     assert _dense_interpolant_ratio(model, t, q, once.dq) <= 1.0 + 1e-9
     assert model.first_violation(t, once.dq, once.ddq, q) is None
     assert t[-1] > plain.t[-1]  # at some cost in time
+    # the peaks it returns are those of its result (the planner's final check reuses them)
+    np.testing.assert_array_equal(once.peaks, model.interval_ratios(t, q, once.dq))
 
 
 def test_first_violation_between_samples_names_the_step() -> None:
@@ -292,6 +294,10 @@ def test_first_violation_between_samples_names_the_step() -> None:
     assert v is not None and v.message == (
         "joint q1 needs 1.5 rad/s between the samples at t = 1.00 and 2.00 s, limit 1.4")
     assert model.first_violation(t, np.zeros((3, 4)), np.zeros((3, 4))) is None  # samples only
+    given = model.interval_ratios(t, q, np.zeros((3, 4)))
+    assert model.first_violation(t, np.zeros((3, 4)), np.zeros((3, 4)), q, peaks=given) == v
+    assert model.first_violation(t, np.zeros((3, 4)), np.zeros((3, 4)), q,
+                                 peaks=0.0 * given) is None  # the peaks given are used
     assert model.first_violation(1.5 / 1.4 * t, np.zeros((3, 4)), np.zeros((3, 4)), q) is None
 
 
@@ -328,3 +334,4 @@ def test_retime_slows_the_whole_motion_when_the_rounds_run_out(
     t = out.scaling.t
     assert _dense_interpolant_ratio(model, t, q, out.dq) <= 1.0 + 1e-9
     assert model.first_violation(t, out.dq, out.ddq, q) is None
+    np.testing.assert_array_equal(out.peaks, model.interval_ratios(t, q, out.dq))

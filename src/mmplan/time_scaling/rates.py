@@ -283,13 +283,16 @@ class RateModel:
             return np.asarray(out / limits, dtype=float)
 
     def first_violation(
-        self, t: Array, dq: Array, ddq: Array, q: Array | None = None
-    ) -> RateViolation | None:
+        self, t: Array, dq: Array, ddq: Array, q: Array | None = None,
+        ratios: Array | None = None, peaks: Array | None = None,
+    ) -> RateViolation | None:  # fmt: skip
         """The earliest sample at which a quantity exceeds its limit (beyond :data:`REL_TOL`,
         NaN counting as exceeding); when none and ``q`` is given, the earliest step on which
         the interpolant (:meth:`interval_ratios`) exceeds it beyond :data:`INTERVAL_TOL`. None
-        when every limit holds."""
-        r = self.ratios(dq, ddq)
+        when every limit holds. ``ratios``, ``peaks``: :meth:`ratios` and
+        :meth:`interval_ratios` of these samples when the caller has them (not computed
+        again)."""
+        r = self.ratios(dq, ddq) if ratios is None else ratios
         found = _first(r, REL_TOL)
         if found is not None:
             k, j, count, worst = found
@@ -298,7 +301,7 @@ class RateModel:
                                  float(r[worst, j] * qt.limit), float(t[worst]), count)  # fmt: skip
         if q is None:
             return None
-        m = self.interval_ratios(t, q, dq)
+        m = self.interval_ratios(t, q, dq) if peaks is None else peaks
         found = _first(m, INTERVAL_TOL)
         if found is None:
             return None

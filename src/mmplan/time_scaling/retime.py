@@ -50,6 +50,9 @@ class Retimed:
         rounds: Scalings run (1 when no step needed tightening).
         step_ratio: Largest peak of the interpolant between samples / limit over every
             limited quantity (<= 1 unless the rounds ran out; 0 without rate limits).
+        peaks: Those peaks / limits on every step, (N - 1, quantities)
+            (:meth:`.rates.RateModel.interval_ratios` of the result; None where not
+            computed: no rate limits, an infeasible scaling).
     """
 
     scaling: Scaling
@@ -57,6 +60,7 @@ class Retimed:
     ddq: Array
     rounds: int
     step_ratio: float
+    peaks: Array | None = None
 
 
 def retime_path(
@@ -111,7 +115,7 @@ def retime_path(
         peaks = model.interval_ratios(sc.t, q, dq)  # (N - 1, quantities)
         ratio = float(np.max(peaks, initial=0.0))
         if ratio <= 1.0:
-            return Retimed(sc, dq, ddq, rounds, ratio)
+            return Retimed(sc, dq, ddq, rounds, ratio, peaks)
         if rounds >= MAX_ROUNDS:
             # Local tightening can oscillate on a marginal excess (measured: a random youbot-3r
             # scene still 2e-6 over a wheel's acceleration after 12 rounds). Slow the whole
@@ -121,8 +125,8 @@ def retime_path(
             c = ratio * (1.0 + 1e-9)
             sc = replace(sc, x=sc.x / c**2, v=sc.v / c**2, t=sc.t[0] + (sc.t - sc.t[0]) * c)
             dq, ddq = dq / c, ddq / c**2
-            ratio = float(np.max(model.interval_ratios(sc.t, q, dq), initial=0.0))
-            return Retimed(sc, dq, ddq, rounds, ratio)
+            peaks = model.interval_ratios(sc.t, q, dq)
+            return Retimed(sc, dq, ddq, rounds, float(np.max(peaks, initial=0.0)), peaks)
         before_tight, before_cap = tight.copy(), x_cap.copy()
         stalled = np.zeros_like(peaks, dtype=bool)
         if previous_peaks is not None:  # over again, by as much as before: no progress

@@ -199,10 +199,12 @@ def scale_path(
         status = Status.INFEASIBLE
         message = f"torque limits broken by up to {over:.3g} N m; " + message
     if opt.rates is not None:
-        info["max_rate_ratio"] = float(np.max(opt.rates.ratios(dq, ddq), initial=0.0))
+        ratios = opt.rates.ratios(dq, ddq)
+        info["max_rate_ratio"] = float(np.max(ratios, initial=0.0))
         info["max_rate_step_ratio"] = timed.step_ratio
         info["time_scaling_rounds"] = timed.rounds
-        broken = opt.rates.first_violation(sc.t, dq, ddq, path.q)
+        # the re-timing's own ratios of these samples and steps (not computed again)
+        broken = opt.rates.first_violation(sc.t, dq, ddq, path.q, ratios, timed.peaks)
         if broken is not None:
             status = Status.INFEASIBLE
             message = f"rate limits broken: {broken.message}; " + message
