@@ -18,6 +18,7 @@ from click.testing import CliRunner, Result
 
 import mmplan
 from mmplan.cli.main import main
+from mmplan.extras import install_command
 from mmplan.planners.base import Planner, register
 from mmplan.problem import PlannerSettings, Problem, Progress
 from mmplan.task import Task
@@ -410,7 +411,7 @@ def test_report_without_the_extra_is_one_line(tmp_path: Path,
     result = run("report", str(tmp_path / "p"))
     assert result.exit_code == 1
     assert result.stderr.strip() == ("error: mmplan report needs matplotlib: "
-                                     "pip install 'mmplan[report]'")
+                                     + install_command("report"))
 
 
 def test_report_extra_is_not_imported_by_the_cli() -> None:

@@ -13,6 +13,7 @@ import yaml
 from click.testing import CliRunner, Result
 
 from mmplan.cli.main import main
+from mmplan.extras import install_command
 from mmplan.robot import library, robot_data
 from tests.eta_planner import METHOD
 from tests.scenario.mini_urdf import mini_entry, write_mini
@@ -34,7 +35,7 @@ def test_robots_lists_real_robots_as_not_installed_without_their_files(
     rows = [line.split("│") for line in result.stdout.splitlines() if line.startswith("│")]
     described = {cells[1].strip(): cells[5].strip() for cells in rows if len(cells) == 7}
     for name in ("tiago", "ur5-omni"):
-        assert described[name] == "not installed (pip install 'mmplan[robots]')"
+        assert described[name] == f"not installed ({install_command('robots')})"
     assert described["youbot-3r"].startswith("KUKA youBot")
 
 
@@ -52,7 +53,7 @@ def test_scenarios_say_which_robots_are_not_installed(monkeypatch: pytest.Monkey
     assert installed["youbot3r-obstacles-torque"][1] == "yes"
     reason = [line for line in result.stdout.splitlines() if line.startswith("not installed")]
     assert len(reason) == 1 and "tiago-table" in reason[0] and "ur5-omni-table" in reason[0]
-    assert reason[0].endswith("pip install 'mmplan[robots]'")
+    assert reason[0].endswith(install_command("robots"))
 
 
 def tiago_scenario(urdf: str = TIAGO) -> dict[str, Any]:

@@ -13,6 +13,7 @@ from click.testing import CliRunner, Result
 
 import mmplan
 from mmplan.cli.main import main
+from mmplan.extras import install_command
 from tests.cli.test_cli import BASE
 from tests.eta_planner import METHOD
 
@@ -109,7 +110,7 @@ def test_without_rosbags_names_the_extra(plan_dir: Path, tmp_path: Path,
                  "--ros2", str(tmp_path / "bag"))
     assert result.exit_code == 2
     assert result.stderr.strip() == ("error: --ros2: writing a ROS 2 bag needs the rosbags "
-                                     "package: pip install 'mmplan[ros]'")
+                                     "package: " + install_command("ros"))
     assert list(tmp_path.iterdir()) == []  # checked before anything is written
 
 

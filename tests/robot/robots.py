@@ -15,6 +15,6 @@ def robot_or_skip(name: str) -> Robot:
     except UnknownNameError:
         raise
     except InputError as exc:
-        if "mmplan[robots]" not in exc.problem:
+        if "[robots]" not in exc.problem:
             raise
         pytest.skip(f"{name}: {exc.problem}")

@@ -226,10 +226,11 @@ def rate_limits_text(rates: RateLimits) -> tuple[str, str]:
 def unavailable_text(exc: mmplan.InputError) -> str:
     """``mmplan robots``: why a built-in robot cannot be built here (its files or Pinocchio
     are not installed), with the command that installs them."""
-    from mmplan.robot.robot_data import INSTALL_HINT
+    from mmplan.extras import install_command
 
-    if INSTALL_HINT in exc.problem:
-        return f"not installed ({INSTALL_HINT})"
+    hint = install_command("robots")
+    if hint in exc.problem:
+        return f"not installed ({hint})"
     return f"not available: {exc.problem}"
 
 

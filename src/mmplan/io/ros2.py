@@ -40,6 +40,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.errors import InputError, path_argument, require
+from mmplan.extras import install_command
 from mmplan.robot import Robot
 from mmplan.robot.bases import Omnidirectional
 from mmplan.trajectory import Trajectory
@@ -51,7 +52,6 @@ FRAME = "odom"
 #: Coordinates of the planar base pose (x, y, heading): the first three of every platform kind.
 BASE_POSE = 3
 BAG_VERSION: Literal[8] = 8
-INSTALL_HINT = "pip install 'mmplan[ros]'"
 
 
 def require_rosbags() -> None:
@@ -60,7 +60,7 @@ def require_rosbags() -> None:
         from rosbags import rosbag2, typesys  # noqa: F401
     except ImportError:
         raise InputError("--ros2", f"writing a ROS 2 bag needs the rosbags package: "
-                         f"{INSTALL_HINT}") from None
+                         f"{install_command('ros')}") from None
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,9 @@ class MissingExtraError(MmplanError, ImportError):
 
 for _extra in ("matplotlib", "meshcat"):  # the figures; the 3D viewer
     if find_spec(_extra) is None:  # pragma: no cover - depends on the environment
-        raise MissingExtraError(f"mmplan report needs {_extra}: pip install 'mmplan[report]'")
+        from mmplan.extras import install_command
+
+        raise MissingExtraError(f"mmplan report needs {_extra}: {install_command('report')}")
 
 
 def write_report(plan_dir: str | Path, max_frames: int = 1000,

@@ -12,8 +12,8 @@ import sys
 from pathlib import Path
 
 from mmplan.errors import InputError
+from mmplan.extras import install_command
 
-INSTALL_HINT = "pip install 'mmplan[robots]'"
 _SUBDIR = Path("share") / "example-robot-data" / "robots"
 
 
@@ -39,7 +39,7 @@ def robot_data_dir() -> Path:
         if path.is_dir():
             return path
     raise InputError("robot", f"the real robots' URDFs (example-robot-data) are not installed: "
-                     f"{INSTALL_HINT}")
+                     f"{install_command('robots')}")
 
 
 def robot_data_file(relative: str) -> Path:
@@ -51,5 +51,5 @@ def robot_data_file(relative: str) -> Path:
     path = robot_data_dir() / relative
     if not path.is_file():
         raise InputError("robot", f"{relative} is missing from example-robot-data at "
-                         f"{path.parent}: {INSTALL_HINT}")
+                         f"{path.parent}: {install_command('robots')}")
     return path

@@ -73,7 +73,9 @@ def _package_file(uri: str, key: str) -> Path:
     if not os.environ.get(PACKAGE_PATH_ENV):
         hints.append(f"${PACKAGE_PATH_ENV} is not set")
     if not any(r.name == "robots" and r.parent.name == "example-robot-data" for r in roots):
-        hints.append("example-robot-data is not installed (pip install 'mmplan[robots]')")
+        from mmplan.extras import install_command
+
+        hints.append(f"example-robot-data is not installed ({install_command('robots')})")
     hint = f" ({'; '.join(hints)})" if hints else ""
     raise InputError(key, f"{name}/{relative} not found in any package folder; searched "
                      f"{searched}{hint}")

@@ -26,8 +26,10 @@ def pinocchio() -> Any:
     try:
         import pinocchio
     except ImportError:  # pragma: no cover - depends on the installation
+        from mmplan.extras import install_command
+
         raise InputError(
-            "robot.urdf", "URDF support needs Pinocchio: pip install 'mmplan[urdf]'"
+            "robot.urdf", f"URDF support needs Pinocchio: {install_command('urdf')}"
         ) from None
     return pinocchio
 
