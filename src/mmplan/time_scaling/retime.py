@@ -162,10 +162,12 @@ def _tighten(
     gives slower plans: 17.27 s instead of 16.18 s for youbot3r-obstacles-torque.)
     """
     previous_tight, previous_cap = tight.copy(), x_cap.copy()
-    for j, qt in enumerate(model.quantities):
-        over = np.flatnonzero(peaks[:, j] > 1.0)
-        if not over.size:
-            continue
+    exceeded = peaks > 1.0
+    # only the quantities over somewhere (the updates are maxima and minima against the
+    # values before: the same in any order)
+    for j in np.flatnonzero(exceeded.any(axis=0)):
+        qt = model.quantities[j]
+        over = np.flatnonzero(exceeded[:, j])
         f = peaks[over, j] * OVERSHOOT
         cols = [k for k, o in enumerate(owner) if o == j]
         stuck = stalled[over, j]
