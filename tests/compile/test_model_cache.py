@@ -57,3 +57,18 @@ def test_robots_and_their_symbols_can_anchor() -> None:
     cache.put(robot.symbols, 0, "symbols")
     copy = robot.with_limits(robot.limits)  # shares the symbols, not the identity
     assert cache.get(copy, 0) is None and cache.get(copy.symbols, 0) == "symbols"
+
+
+def test_a_value_of_none_is_built_once() -> None:
+    """A build that returns None (a robot without a wrist) is stored like any value: it ran
+    on every call before, and the wrist's disk memo was read twice a plan."""
+    cache: ModelCache[str | None] = ModelCache(4)
+    anchor = Anchor()
+    builds: list[int] = []
+
+    def build() -> None:
+        builds.append(1)
+
+    assert cache.get_or_build(anchor, "k", build) is None
+    assert cache.get_or_build(anchor, "k", build) is None
+    assert builds == [1] and cache.get(anchor, "k") is None

@@ -50,9 +50,14 @@ COLD_FLAGS = ("-O0",)
 
 def cache_dir() -> Path:
     """Folder of the compiled libraries: ``$MMPLAN_CACHE`` or ``$TMPDIR/mmplan-codegen``."""
-    if "MMPLAN_CACHE" in os.environ:
-        return Path(os.environ["MMPLAN_CACHE"])
-    return Path(tempfile.gettempdir()) / "mmplan-codegen"
+    return _cache_dir(os.environ.get("MMPLAN_CACHE"), tempfile.gettempdir())
+
+
+@lru_cache(maxsize=16)
+def _cache_dir(given: str | None, temporary: str) -> Path:
+    # remembered: a plan asks a few dozen times (the robot's compiled functions look it up
+    # at each call), each a Path of a few us
+    return Path(given) if given is not None else Path(temporary) / "mmplan-codegen"
 
 
 def compiler() -> str | None:

@@ -28,11 +28,15 @@ class ModelCache(Generic[T]):
 
     def get(self, anchor: object, key: Hashable) -> T | None:
         """The value stored for (anchor, key), None when absent."""
+        return self._lookup(anchor, key)[1]
+
+    def _lookup(self, anchor: object, key: Hashable) -> tuple[bool, T | None]:
+        """(whether (anchor, key) is stored, its value): a stored None is a value."""
         found = self._items.get((id(anchor), key))
         if found is None or found[0]() is not anchor:
-            return None
+            return False, None
         self._items.move_to_end((id(anchor), key))
-        return found[1]
+        return True, found[1]
 
     def put(self, anchor: object, key: Hashable, value: T) -> None:
         """Store ``value`` for (anchor, key), dropping the least recently used beyond size."""
@@ -42,12 +46,14 @@ class ModelCache(Generic[T]):
             self._items.popitem(last=False)
 
     def get_or_build(self, anchor: object, key: Hashable, build: Callable[[], T]) -> T:
-        """The stored value, or ``build()`` stored and returned."""
-        found = self.get(anchor, key)
-        if found is None:
+        """The stored value, or ``build()`` stored and returned. A value of None is stored
+        too (found by profiling: the youBot's "no wrist" was looked up on disk twice a
+        plan, its JSON file read each time)."""
+        stored, found = self._lookup(anchor, key)
+        if not stored:
             found = build()
             self.put(anchor, key, found)
-        return found
+        return found  # type: ignore[return-value]
 
     def clear(self) -> None:
         """Forget every entry."""
