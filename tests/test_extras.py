@@ -27,8 +27,13 @@ class _Dist:
          "pip install '/home/u/my mmplan[robots]'"),  # a checkout, installed
         ([_Dist({"url": "file:///work/mmplan", "dir_info": {"editable": True}})],
          "pip install -e '/work/mmplan[robots]'"),  # a checkout, editable
-        ([_Dist({"url": "https://example.org/mmplan-0.1.tar.gz"})],
-         "pip install 'mmplan[robots]'"),
+        ([_Dist({"url": "https://example.org/mmplan-0.1.tar.gz", "archive_info": {}})],
+         "pip install 'mmplan[robots] @ https://example.org/mmplan-0.1.tar.gz'"),
+        ([_Dist({"url": "https://example.org/u/mmplan.git",
+                 "vcs_info": {"vcs": "git", "commit_id": "abc123"}})],
+         "pip install 'mmplan[robots] @ git+https://example.org/u/mmplan.git@abc123'"),
+        ([_Dist({"url": "file://server/share/mmplan", "dir_info": {}})],
+         "pip install '//server/share/mmplan[robots]'"),  # a network share keeps its host
     ],
 )
 def test_the_install_command_names_the_checkout(

@@ -6,36 +6,57 @@ import json
 import shlex
 from functools import lru_cache
 from importlib import metadata
-from urllib.parse import unquote, urlparse
+from typing import Any
+from urllib.parse import urlparse
+from urllib.request import url2pathname
 
 
 def install_command(extra: str) -> str:
-    """``pip install 'mmplan[extra]'``, or ``pip install '/path/to/mmplan[extra]'`` when this
-    mmplan was installed from a folder (a checkout; ``pip install -e ...`` when it was
-    installed editable: pip records both in the distribution's ``direct_url.json``). Found by
-    a new-user trial: the package-index form is no help to a user who installed from a
-    checkout."""
-    source, editable = _source()
-    return f"pip install {'-e ' if editable else ''}{shlex.quote(f'{source}[{extra}]')}"
+    """The pip command that adds ``extra`` to this mmplan, from where pip installed it (the
+    distribution's ``direct_url.json``): ``pip install '/path/to/mmplan[extra]'`` for a
+    folder (``pip install -e ...`` when editable), ``pip install 'mmplan[extra] @ <url>'`` for
+    a VCS checkout (at its commit) or an archive, ``pip install 'mmplan[extra]'`` otherwise.
+    Found by a new-user trial: the package-index form is no help to a user who installed
+    from a checkout."""
+    kind, where, editable = _source()
+    if kind == "folder":
+        requirement = f"{where}[{extra}]"
+    elif kind == "url":
+        requirement = f"mmplan[{extra}] @ {where}"
+    else:
+        requirement = f"mmplan[{extra}]"
+    return f"pip install {'-e ' if editable else ''}{shlex.quote(requirement)}"
 
 
 @lru_cache(maxsize=1)
-def _source() -> tuple[str, bool]:
-    """What pip installed mmplan from (a folder's path, else the name ``mmplan``) and
-    whether it was installed editable."""
+def _source() -> tuple[str, str, bool]:
+    """(kind, where, editable): ("folder", its path, editable), ("url", a direct reference,
+    False) or ("index", "", False) (the package index, or no record)."""
     for dist in metadata.distributions(name="mmplan"):  # a source tree's egg-info has none
         try:
             text = dist.read_text("direct_url.json")
             info = json.loads(text) if text else None
-            url = urlparse(str(info.get("url", ""))) if info else None
-        except (ValueError, AttributeError, OSError):
+        except (ValueError, OSError):
             continue
-        if url is not None and url.scheme == "file" and url.path:
-            editable = bool((info or {}).get("dir_info", {}).get("editable", False))
-            return unquote(url.path), editable
-        if url is not None:
-            return "mmplan", False
-    return "mmplan", False
+        if isinstance(info, dict) and isinstance(info.get("url"), str):
+            return _where(info)
+    return "index", "", False
+
+
+def _where(info: dict[str, Any]) -> tuple[str, str, bool]:
+    url = str(info["url"])
+    parsed = urlparse(url)
+    dir_info = info.get("dir_info")
+    if parsed.scheme == "file" and isinstance(dir_info, dict):  # a folder
+        path = url2pathname(parsed.path)
+        if parsed.netloc and parsed.netloc != "localhost":  # a network share
+            path = f"//{parsed.netloc}{path}"
+        return "folder", path, bool(dir_info.get("editable", False))
+    vcs = info.get("vcs_info")
+    if isinstance(vcs, dict) and vcs.get("vcs"):
+        commit = vcs.get("commit_id") or vcs.get("requested_revision")
+        return "url", f"{vcs['vcs']}+{url}" + (f"@{commit}" if commit else ""), False
+    return "url", url, False  # an archive (a wheel or sdist, local or remote)
 
 
 __all__ = ["install_command"]

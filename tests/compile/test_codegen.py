@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import casadi as ca
@@ -134,3 +135,45 @@ def test_a_compiler_that_rejects_a_flag_gets_the_fallback_flags(
         raise AssertionError("made again")
 
     assert cg.compile_library(never, "t", native, key="picky", fallback=plain) == path
+
+
+def test_the_describer_takes_any_function_name_and_refuses_what_it_cannot_call(
+    cache: Path,
+) -> None:
+    """Functions named like the describer's own parameters or a C library function get
+    their own address (review: ``out`` got the parameter's; a segfault), a function without
+    outputs or with a sparse input is a ValueError (no crash, nothing checked out)."""
+    x = ca.SX.sym("x", 2)
+    named = [ca.Function(n, [x], [x * (i + 2)]) for i, n in enumerate(("out", "cap", "name",
+                                                                       "strcmp"))]
+    none = ca.Function("mmplan_test_none", [x], [])
+    s = ca.SX.sym("s", ca.Sparsity.diag(2))
+    sparse_in = ca.Function("mmplan_test_sparse_in", [s], [ca.densify(s)])
+    library = cg.compile_library([*named, none, sparse_in], "t", ("-O0",))
+    assert library is not None
+    for i, fn in enumerate(named):
+        native = cg.NativeFunction(library, fn.name())
+        native.x[:] = [1.0, -3.0]
+        np.testing.assert_array_equal(native(), [i + 2.0, -3.0 * (i + 2)])
+    with pytest.raises(ValueError, match="no output"):
+        cg.NativeFunction(library, "mmplan_test_none")
+    with pytest.raises(ValueError, match="input 0 is not dense"):
+        cg.NativeFunction(library, "mmplan_test_sparse_in")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ELF symbol interposition")
+def test_a_library_calls_its_own_function_whatever_is_loaded_globally(cache: Path) -> None:
+    """With another library that exports the same name loaded globally, the describer still
+    hands out this library's function (review: it handed out the other's before the link
+    flag, codegen.LINK_FLAGS)."""
+    import ctypes
+    import os
+
+    x = ca.SX.sym("x", 1)
+    two = cg.compile_library([ca.Function("mmplan_test_same", [x], [2 * x])], "ta", ("-O0",))
+    three = cg.compile_library([ca.Function("mmplan_test_same", [x], [3 * x])], "tb", ("-O0",))
+    assert two is not None and three is not None
+    ctypes.CDLL(two, mode=os.RTLD_NOW | os.RTLD_GLOBAL)
+    native = cg.NativeFunction(three, "mmplan_test_same")
+    native.x[:] = [1.0]
+    np.testing.assert_array_equal(native(), [3.0])

@@ -39,3 +39,32 @@ def test_prefetched_library_is_used_and_matches_the_reference(
     finally:
         native.kernels.cache_clear()
         native_peaks.peaks.cache_clear()
+
+
+@pytest.mark.skipif(codegen.compiler() is None, reason="needs a C compiler")
+def test_idle_loads_take_libraries_on_disk_and_never_build(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``load_passes`` / ``load_peaks`` (run while a rollout waits for its chunk) load a
+    library that is on disk, and build nothing when it is not (a build is prefetch's)."""
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    native.kernels.cache_clear()
+    native_peaks.peaks.cache_clear()
+    try:
+        topp_passes.load_passes()
+        topp_passes.load_peaks()
+        assert not list(tmp_path.glob("*.so"))  # nothing on disk: nothing built
+        assert not native.kernels.cache_info().currsize
+        assert not native_peaks.peaks.cache_info().currsize
+        topp_passes.prefetch()
+        topp_passes._native()  # the build is on disk now
+        native.kernels.cache_clear()
+        native_peaks.peaks.cache_clear()
+        topp_passes.load_passes()
+        assert native.kernels.cache_info().currsize and native.kernels() is not None
+        assert not native_peaks.peaks.cache_info().currsize  # each loads its own
+        topp_passes.load_peaks()
+        assert native_peaks.peaks.cache_info().currsize and native_peaks.peaks() is not None
+    finally:
+        native.kernels.cache_clear()
+        native_peaks.peaks.cache_clear()

@@ -232,7 +232,7 @@ def scenarios() -> None:
               show_default=True, help="npz also writes trajectory.npz next to trajectory.csv.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar and no metrics; exit code only.")
 @click.option("--report", "with_report", is_flag=True,
-              help="Also write OUT/report.html (figures and 3D animation; needs mmplan[report]).")
+              help="Also write OUT/report.html (figures and 3D animation; needs the report extra).")
 def plan(scenario: str, out_dir: Path, fmt: str, quiet: bool, with_report: bool) -> None:
     """Plan SCENARIO (a built-in name or a YAML file) and write the plan to --out.
 
@@ -368,7 +368,7 @@ def report(plan_dir: Path, quiet: bool) -> None:
 
     One self-contained HTML file (opens offline): summary table, the papers' figures for the
     planner used and a 3D animation of the robot among the obstacles. Needs the optional
-    report extra (pip install 'mmplan[report]'). Example:
+    report extra (without it the command says how to install it). Example:
 
     \b
       mmplan plan youbot4r-reach --out runs/y4 && mmplan report runs/y4
@@ -399,7 +399,7 @@ def report(plan_dir: Path, quiet: bool) -> None:
                    "folder; replaced atomically).")
 @click.option("--ros2", "bag", type=click.Path(file_okay=False, path_type=Path),
               help="rosbag2 folder to write (new, empty or an earlier bag; needs "
-                   "pip install 'mmplan[ros]').")
+                   "the ros extra).")
 @click.option("--quiet", "-q", is_flag=True, help="Print nothing but failures; exit code only.")
 def export_cmd(plan_dir: Path, rate: float, out_dir: Path | None, bag: Path | None,
                quiet: bool) -> None:

@@ -42,6 +42,11 @@ UNIT_BYTES = 100_000
 #: level (contractions across an inlined call made the one-file and the two-unit builds of
 #: youBot-3r's generator differ by up to 6e-9 in a plan with -march=native).
 FIXED_FLAGS = ("-ffp-contract=off",)
+#: Linker flags on Linux (a linker without them links without): the addresses a library
+#: takes of its own exported functions (the describer, :func:`_describer`) are its own, not
+#: those of a same-named function another library loaded globally (found by review: with
+#: such a library loaded, a NativeFunction called the other one).
+LINK_FLAGS = ("-Wl,-Bsymbolic-functions",)
 #: Added for the code only rarely called functions reach (``cold`` of :func:`compile_library`):
 #: youBot-3r's ``terms`` (called once a plan, 14 % of its generator's C) compiles in 0.17 s
 #: instead of 0.9-1.0 s at -O2.
@@ -80,58 +85,76 @@ def _source(functions: Sequence[ca.Function]) -> str:
 
 #: Numbers :func:`_describer`'s function writes before the sparsity patterns.
 _HEAD = 8
+#: The describer's symbol; a new layout of its numbers gets a new name (a library of another
+#: layout, e.g. in a cache folder shared between versions, is then read symbol by symbol).
+_DESCRIBE = "mmplan_describe_v1"
+#: ``out[0]`` of the describer: not exported, no outputs, an input not dense (its index in
+#: ``out[1]``).
+_ABSENT, _NO_OUTPUT, _SPARSE_INPUT = -1, -2, -3
 _DESCRIBE_ONE = """
-#include <string.h>
 /* mmplan: what codegen.NativeFunction needs of an exported function, in one call (its work
    sizes, its memory, the sparsity of its inputs and of its first output): ctypes looked up
-   six symbols and called each once, 0.15-0.2 ms a function in a new process. out: [0] the
-   numbers written (or needed, when more than cap), [1] sizeof(casadi_int), [2..5] the work
-   sizes, [6] inputs, [7] the checked-out memory, then the patterns as CasADi stores them. */
-__attribute__((visibility("hidden"))) void* mmplan_describe_one(long long* out, long long cap,
+   six symbols and called each once, 0.15-0.2 ms a function in a new process. o: [0] the
+   numbers written (or needed, when more than cap; negative: not described, codegen.py),
+   [1] sizeof(casadi_int), [2..5] the work sizes, [6] inputs, [7] the checked-out memory,
+   then the patterns as CasADi stores them. Nothing is checked out unless all is written. */
+__attribute__((visibility("hidden"))) void* mmplan_describe_one(long long* o, long long cap,
     int (*work)(casadi_int*, casadi_int*, casadi_int*, casadi_int*), casadi_int (*n_in)(void),
-    const casadi_int* (*sp_in)(casadi_int), const casadi_int* (*sp_out)(casadi_int),
-    void (*incref)(void), int (*checkout)(void), void* fn) {
+    casadi_int (*n_out)(void), const casadi_int* (*sp_in)(casadi_int),
+    const casadi_int* (*sp_out)(casadi_int), void (*incref)(void), int (*checkout)(void),
+    void* fn) {
   casadi_int sz[4], i, k, n = n_in(), len, at = %(head)d;
   const casadi_int* sp;
+  if (n_out() < 1) { o[0] = %(no_output)d; return 0; }
   for (i = 0; i <= n; ++i) {
     sp = i < n ? sp_in(i) : sp_out(0);
+    if (i < n && sp[2] != 1) { o[0] = %(sparse_input)d; o[1] = i; return 0; }
     at += sp[2] == 1 ? 3 : 3 + sp[1] + sp[2 + sp[1]];
   }
-  out[0] = at;
+  o[0] = at;
   if (at > cap) return 0;
   work(sz, sz + 1, sz + 2, sz + 3);
-  out[1] = (long long) sizeof(casadi_int);
-  for (k = 0; k < 4; ++k) out[2 + k] = sz[k];
-  out[6] = n;
+  o[1] = (long long) sizeof(casadi_int);
+  for (k = 0; k < 4; ++k) o[2 + k] = sz[k];
+  o[6] = n;
   at = %(head)d;
   for (i = 0; i <= n; ++i) {
     sp = i < n ? sp_in(i) : sp_out(0);
     len = sp[2] == 1 ? 3 : 3 + sp[1] + sp[2 + sp[1]];
-    for (k = 0; k < len; ++k) out[at + k] = sp[k];
+    for (k = 0; k < len; ++k) o[at + k] = sp[k];
     at += len;
   }
   incref();
-  out[7] = checkout();
+  o[7] = checkout();
   return fn;
+}
+
+__attribute__((visibility("hidden"))) int mmplan_describe_same(const char* a, const char* b) {
+  while (*a && *a == *b) { ++a; ++b; }
+  return *a == *b;
 }
 """
 
 
 def _describer(names: Sequence[str]) -> str:
-    """C appended to a generated library: ``mmplan_describe(name, out, cap)``, everything
-    :class:`NativeFunction` needs of the function ``name`` in one call (a null pointer and
-    ``out[0] = -1`` for a name the library does not export)."""
+    """C appended to a generated library: ``mmplan_describe_v1(name, out, cap)``, everything
+    :class:`NativeFunction` needs of the function ``name`` in one call (a null pointer and a
+    negative ``out[0]`` when it cannot: :data:`_ABSENT` and the others). Its own names are
+    prefixed (a generated function named ``out`` or ``strcmp`` must not be shadowed, review);
+    the library is linked so that these addresses are its own (:func:`_compile`)."""
     cases = "".join(
-        f'  if (!strcmp(name, "{n}")) return mmplan_describe_one(out, cap, {n}_work, {n}_n_in, '
-        f"{n}_sparsity_in, {n}_sparsity_out, {n}_incref, {n}_checkout, (void*) {n});\n"
+        f'  if (mmplan_describe_same(mmplan_name, "{n}")) return mmplan_describe_one(mmplan_o, '
+        f"mmplan_cap, {n}_work, {n}_n_in, {n}_n_out, {n}_sparsity_in, {n}_sparsity_out, "
+        f"{n}_incref, {n}_checkout, (void*) {n});\n"
         for n in names
     )
+    head = {"head": _HEAD, "no_output": _NO_OUTPUT, "sparse_input": _SPARSE_INPUT}
     return (
-        _DESCRIBE_ONE % {"head": _HEAD}
-        + "CASADI_SYMBOL_EXPORT void* mmplan_describe(const char* name, long long* out, "
-        + "long long cap) {\n"
+        _DESCRIBE_ONE % head
+        + f"CASADI_SYMBOL_EXPORT void* {_DESCRIBE}(const char* mmplan_name, "
+        + "long long* mmplan_o, long long mmplan_cap) {\n"
         + cases
-        + "  out[0] = -1;\n  return 0;\n}\n"
+        + f"  mmplan_o[0] = {_ABSENT};\n  return 0;\n}}\n"
     )
 
 
@@ -293,6 +316,10 @@ def _compile(cc: str, units: Sequence[Unit], so_file: Path, flags: Sequence[str]
                 run.kill()
                 run.wait()
     link = [cc, *flags, "-shared", *map(str, objects), "-o", str(so_file), "-lm"]
+    if sys.platform.startswith("linux"):  # the library's own functions bind to themselves
+        bound = [*link[:-1], *LINK_FLAGS, link[-1]]
+        if subprocess.run(bound, capture_output=True, timeout=900).returncode == 0:
+            return True
     return subprocess.run(link, capture_output=True, timeout=900).returncode == 0
 
 
@@ -498,9 +525,10 @@ _Described = tuple[Any, tuple[int, int, int, int], list[_Pattern], _Pattern, Any
 
 @lru_cache(maxsize=64)
 def _describe(path: str) -> Any:
-    """The library's ``mmplan_describe`` (:func:`_describer`), None when it has none."""
+    """The library's describer (:data:`_DESCRIBE`, :func:`_describer`), None when it has
+    none."""
     try:
-        describe = _cdll(path).mmplan_describe
+        describe = getattr(_cdll(path), _DESCRIBE)
     except AttributeError:
         return None
     describe.restype = ctypes.c_void_p
@@ -510,8 +538,9 @@ def _describe(path: str) -> Any:
 
 def _described(lib: ctypes.CDLL, path: str, name: str) -> _Described | None:
     """What :class:`NativeFunction` needs of ``name``, from one call of the library's
-    ``mmplan_describe``; None when the library has none. Raises AttributeError when the
-    library does not export ``name`` (as a symbol lookup does)."""
+    describer; None when the library has none. Raises AttributeError when the library does
+    not export ``name`` (as a symbol lookup does), ValueError for a function without outputs
+    or with an input that is not dense (nothing checked out then)."""
     describe = _describe(path)
     if describe is None:
         return None
@@ -521,6 +550,10 @@ def _described(lib: ctypes.CDLL, path: str, name: str) -> _Described | None:
         out = np.zeros(int(out[0]), dtype=np.int64)
         address = describe(name.encode(), out.ctypes.data, len(out))
     if not address:
+        if out[0] == _SPARSE_INPUT:
+            raise ValueError(f"{name}: input {int(out[1])} is not dense")
+        if out[0] == _NO_OUTPUT:
+            raise ValueError(f"{name}: no output")
         raise AttributeError(f"{path}: no function {name}")
     cint = ctypes.c_longlong if int(out[1]) == 8 else ctypes.c_int
     sizes = tuple(max(1, int(x)) for x in out[2:6])
@@ -534,7 +567,7 @@ def _described(lib: ctypes.CDLL, path: str, name: str) -> _Described | None:
 
 def _looked_up(lib: ctypes.CDLL, name: str) -> _Described:
     """What :class:`NativeFunction` needs of ``name``, symbol by symbol (a library without
-    ``mmplan_describe``)."""
+    the describer)."""
     cint = ctypes.c_longlong if lib.mmplan_gen_casadi_int_size() == 8 else ctypes.c_int
     sizes = [cint() for _ in range(4)]
     getattr(lib, f"{name}_work")(*(ctypes.byref(x) for x in sizes))

@@ -166,8 +166,8 @@ class Job:
         return int(self._lib.wait(self._job))
 
     def done(self) -> bool:
-        """The evaluation is over (:meth:`wait` returns at once)."""
-        return bool(self._lib.done(self._job))
+        """The evaluation is over (:meth:`wait` returns at once); True once closed."""
+        return self._job is None or bool(self._lib.done(self._job))
 
     def close(self) -> None:
         """Wait for a job in flight and free the job (idempotent)."""

@@ -262,24 +262,20 @@ def _load_both() -> None:
     native_peaks.peaks()
 
 
-def load() -> None:
-    """Load the C loops when they are on disk (a caller with idle time: the rollout waiting
-    for its compiled chunks, :mod:`mmplan.planners.extended_jacobian.prefetch`); else leave
-    them to :func:`prefetch` or the first scaling."""
-    load_passes()
-    load_peaks()
-
-
 def load_passes() -> None:
-    """:func:`load`'s first half: the passes of :mod:`.native` (one idle wait may not hold
-    both)."""
+    """Load the passes of :mod:`.native` when they are on disk (a caller with idle time: the
+    rollout waiting for its compiled chunks,
+    :mod:`mmplan.planners.extended_jacobian.prefetch`); else leave them to :func:`prefetch` or
+    the first scaling. The step peaks apart (:func:`load_peaks`): one idle wait may not hold
+    both."""
     if _missing() and codegen.source_is_cached(native.SOURCE, native.PREFIX, native.FLAGS,
                                                native.FALLBACK):  # fmt: skip
         native.kernels()
 
 
 def load_peaks() -> None:
-    """:func:`load`'s second half: the step peaks of :mod:`.native_peaks`."""
+    """Load the step peaks of :mod:`.native_peaks` when they are on disk (as
+    :func:`load_passes`)."""
     if (
         not (_PENDING or native_peaks.peaks.cache_info().currsize or codegen.compiler() is None)
         and codegen.source_is_cached(native_peaks.SOURCE, native_peaks.PREFIX,

@@ -108,8 +108,10 @@ def test_waiting_for_a_running_guess_runs_the_idle_tasks_once() -> None:
         pytest.fail("no C compiler on this machine")
     import time
 
+    from mmplan.compile import threads
     from mmplan.planners.extended_jacobian import prefetch
 
+    assert threads.library() is not None  # built now when missing (a fresh cache)
     spec = Speculation(_Slow(), enabled=True)  # 50 ms a call
     ran: list[int] = []
 
@@ -122,7 +124,9 @@ def test_waiting_for_a_running_guess_runs_the_idle_tasks_once() -> None:
     spec.call(x)  # no guess in flight: nothing to wait for, the task waits
     assert ran == []
     spec.guess(x)
-    time.sleep(0.2)  # the guess is over: its wait returns at once, the task waits
+    deadline = time.monotonic() + 10.0
+    while spec._job is not None and not spec._job.done() and time.monotonic() < deadline:
+        time.sleep(0.01)  # the guess is over: its wait returns at once, the task waits
     np.testing.assert_array_equal(spec.call(x), [6.0])
     assert ran == [] and spec.hits == 1
     spec.guess(x)
