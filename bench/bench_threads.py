@@ -4,7 +4,8 @@ on one thread or two, each pair interleaved in one run, with 0, 1 and 2 busy pro
 * Guesses (:mod:`mmplan.planners.extended_jacobian.prefetch`): ``--plans`` warm plans of the
   scenario (default youbot3r-obstacles-torque) in one process, guesses forced on and off
   alternately (their load gate switched off); median and best of each and the ratio on / off
-  of the medians.
+  of the medians; and as shipped (``default``: the load gate on, guesses and the split only
+  while a core is idle), interleaved with them.
 * Backward pass (:mod:`mmplan.time_scaling.native`): the full pass over the plan's first
   re-timing rows (606 intervals x 15 rows for the paper scenario), split over two threads
   (forced: the load gate ``threads.idle_core`` switched off) against one thread.
@@ -75,7 +76,9 @@ def main() -> None:
     assert path is not None
     shipped, single = (native.Kernels(ctypes.CDLL(path)) for _ in range(2))
     single.split = False
-    threads.idle_core = lambda: True  # type: ignore[assignment]  # split whatever the load
+    gate = threads.idle_core
+    forced = lambda: True  # noqa: E731  # split whatever the load
+    threads.idle_core = forced  # type: ignore[assignment]
     top = len(data[0]) - 2
     print(f"{args.scenario}: {args.plans} plans each way; backward pass {top + 1} intervals x "
           f"{data[0].shape[1]} rows; {threads.cores()} cores")  # fmt: skip
@@ -83,14 +86,17 @@ def main() -> None:
         procs = _busy(load)
         try:
             time.sleep(1.0)
-            times: dict[bool, list[float]] = {True: [], False: []}
-            for i in range(2 * args.plans):
-                on = i % 2 == 0
-                spec.switch(on)
+            times: dict[str, list[float]] = {"on": [], "off": [], "default": []}
+            for i in range(3 * args.plans):
+                case = ("on", "off", "default")[i % 3]
+                spec.switch(case != "off")
+                spec.follow_load = case == "default"  # as shipped: the gate decides
+                threads.idle_core = gate if case == "default" else forced  # type: ignore[assignment]
                 start = time.perf_counter()
                 planner.plan(problem)
-                times[on].append(time.perf_counter() - start)
+                times[case].append(time.perf_counter() - start)
             spec.switch(True)
+            threads.idle_core = forced  # type: ignore[assignment]
             bw: dict[str, list[float]] = {"two threads": [], "one thread": []}
             for _ in range(40):
                 for name, kernels in (("two threads", shipped), ("one thread", single)):
@@ -100,11 +106,13 @@ def main() -> None:
         finally:
             for p in procs:
                 p.kill()
-        on_m, off_m = (statistics.median(times[k]) * 1e3 for k in (True, False))
+        on_m, off_m, def_m = (statistics.median(times[k]) * 1e3 for k in ("on", "off", "default"))
         print(f"busy processes {load} (load average {os.getloadavg()[0]:.2f}):")
-        print(f"  plan, guesses on : median {on_m:6.2f} ms, best {min(times[True]) * 1e3:6.2f}")
-        print(f"  plan, guesses off: median {off_m:6.2f} ms, best {min(times[False]) * 1e3:6.2f}"
+        print(f"  plan, guesses on : median {on_m:6.2f} ms, best {min(times['on']) * 1e3:6.2f}")
+        print(f"  plan, guesses off: median {off_m:6.2f} ms, best {min(times['off']) * 1e3:6.2f}"
               f"   on / off {on_m / off_m:.3f}")  # fmt: skip
+        print(f"  plan as shipped  : median {def_m:6.2f} ms, best "
+              f"{min(times['default']) * 1e3:6.2f}   shipped / off {def_m / off_m:.3f}")
         two, one = (statistics.median(bw[k]) * 1e3 for k in ("two threads", "one thread"))
         print(f"  backward pass: two threads {two:.3f} ms, one thread {one:.3f} ms, "
               f"two / one {two / one:.3f}")  # fmt: skip
