@@ -109,7 +109,7 @@ def retime_path(
             )  # fmt: skip
         w = np.sqrt(sc.x)
         dq = w[:, None] * dq_ds
-        ddq = sc.x[:, None] * ddq_ds2 + 0.5 * sc.v[:, None] * dq_ds
+        ddq = sc.x[:, None] * ddq_ds2 + 0.5 * sc.v_at_samples[:, None] * dq_ds
         if model is None or rr is None or not sc.feasible:
             return Retimed(sc, dq, ddq, rounds, 0.0)
         peaks = model.interval_ratios(sc.t, q, dq)  # (N - 1, quantities)

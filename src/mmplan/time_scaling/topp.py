@@ -91,6 +91,19 @@ class Scaling:
     feasible: bool
     first_empty: int | None
 
+    @property
+    def v_at_samples(self) -> Array:
+        """dx/dsigma at each sample, for the accelerations and efforts there: v, with the last
+        interval's value at the last sample (the derivative from the left; the rows hold there
+        with it, the first-order discretization keeps them at both ends of an interval). With
+        0 there a plan cut short while moving (a timeout) ended with an acceleration its last
+        step does not have: the checker's ddq consistency failed by 0.19 (new-user trial)."""
+        if len(self.v) < 2:
+            return self.v
+        out = self.v.copy()
+        out[-1] = self.v[-2]
+        return out
+
 
 def _rows(alpha: Array, beta: Array, g: Array, lo: Array, hi: Array) -> tuple[Array, Array]:
     """Zone constraints as A [x, v] <= b at one sample (finite limits only)."""

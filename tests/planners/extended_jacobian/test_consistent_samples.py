@@ -10,6 +10,7 @@ every step's residual is within ``DQ_STEP_TOL`` x peak |dq|.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -65,3 +66,30 @@ def test_step_residuals_match_the_checkers_formula(rng: np.random.Generator) -> 
     h = t[k + 1] - t[k]
     expect = np.max(np.abs((q[k + 1] - q[k]) / h - (dq[k] + dq[k + 1]) / 2))
     assert r[k] == pytest.approx(expect, rel=1e-12)
+
+
+@pytest.mark.parametrize("t_max", [1.5, 3.0])
+def test_a_plan_cut_short_while_moving_passes_every_check_but_completion(
+    t_max: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A timeout ends the path while the robot moves: its last sample's acceleration is the
+    last step's (dx/dsigma from the left), not that of x held constant (new-user trial: the
+    paper scenario with t_max = 3 s failed the ddq-consistency check by 0.19 at its last
+    sample, and every other check passed)."""
+    from mmplan.scenario import load_scenario
+    from mmplan.time_scaling import topp
+    from mmplan.trajectory import Status
+
+    sc = load_scenario("youbot3r-obstacles-torque")
+    problem = sc.build()
+    problem = replace(problem, settings=problem.settings.model_copy(update={"t_max": t_max}))
+    result = ExtendedJacobian().plan(problem)
+    assert result.status is Status.TIMEOUT
+    assert np.linalg.norm(result.trajectory.dq[-1]) > 0.1  # moving at the end
+    report = check(result.trajectory, problem, result.status)
+    assert report.failures() == [], report.failures()
+    if t_max == 3.0:  # the same plan with v = 0 at the last sample: the defect
+        monkeypatch.setattr(topp.Scaling, "v_at_samples", property(lambda self: self.v))
+        before = ExtendedJacobian().plan(problem)
+        old = check(before.trajectory, problem, before.status)
+        assert any(f.startswith("ddq consistency") for f in old.failures())

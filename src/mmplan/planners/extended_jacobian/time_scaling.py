@@ -179,7 +179,7 @@ def scale_path(
         info["max_torque_violation"] = float(np.nanmax(off)) if opt.torque_control else 0.0
         return dataclasses.replace(path, status=Status.INFEASIBLE, message=message, info=info)
     w, dq, ddq = np.sqrt(sc.x), timed.dq, timed.ddq
-    tau = alpha * sc.x[:, None] + 0.5 * beta * sc.v[:, None] + g
+    tau = alpha * sc.x[:, None] + 0.5 * beta * sc.v_at_samples[:, None] + g
     over = 0.0
     if opt.torque_control:
         excess = np.maximum(np.maximum(tau - opt.limits[1], opt.limits[0] - tau), 0.0)
