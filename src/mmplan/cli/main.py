@@ -172,17 +172,22 @@ def robots() -> None:
         table.columns[0].no_wrap = True  # a name a user types: never cut
         rates = Table("robot", "velocity limits (m/s, rad/s)", "acceleration limits (/s^2)",
                       caption="sources of the numbers: docs/conventions.md, Limits")
+        reasons: dict[str, list[str]] = {}
         for name in mmplan.robot_names():
             try:
                 r = mmplan.get_robot(name)
             except mmplan.InputError as exc:  # a real robot whose files are not installed
-                table.add_row(name, "-", "-", "-", escape(unavailable_text(exc)))
+                status, reason = unavailable_text(exc)
+                table.add_row(name, "-", "-", "-", f"{status} (below)")
                 rates.add_row(name, "-", "-")
+                reasons.setdefault(f"{status} ({{}}): {reason}", []).append(name)
                 continue
             table.add_row(name, str(r.n), str(r.h), " ".join(r.coordinates), r.description)
             rates.add_row(name, *rate_limits_text(r.limits.rates))
         out.print(table)
         out.print(rates)
+        for line, names in reasons.items():  # whole, never cut by a column (new-user trial)
+            out.print(escape(line.format(", ".join(names))), soft_wrap=True)
 
 
 @main.command()
@@ -192,13 +197,12 @@ def scenarios() -> None:
         from rich.markup import escape
         from rich.table import Table
 
-        from mmplan.robot.library import unavailable
+        from mmplan.scenario.loader import robot_unavailable
 
         table = Table()
         for column in ("scenario", "robot", "method", "installed"):  # names a user types:
             table.add_column(column, no_wrap=True)  # never cut (the reasons follow the table)
         available = set(mmplan.methods())
-        robots = set(mmplan.robot_names())
         reasons: dict[str, list[str]] = {}
         for name, path in mmplan.builtin_scenarios().items():
             try:
@@ -207,7 +211,7 @@ def scenarios() -> None:
                 table.add_row(name, "?", "?", "no")
                 reasons.setdefault(f"invalid file: {exc.problem}", []).append(name)
                 continue
-            missing = unavailable(robot) if robot in robots else None
+            missing = robot_unavailable(path)  # a built-in robot's or a URDF robot's files
             if method not in available:
                 missing = f"the {method} planner is not installed"
             table.add_row(name, robot, method, "yes" if missing is None else "no")
@@ -221,7 +225,7 @@ def scenarios() -> None:
             console = Console(file=console.file, width=1000, highlight=False)
         console.print(table)
         for reason, names in reasons.items():
-            out.print(escape(f"not installed ({', '.join(names)}): {reason}"))
+            out.print(escape(f"not installed ({', '.join(names)}): {reason}"), soft_wrap=True)
 
 
 @main.command()

@@ -223,15 +223,15 @@ def rate_limits_text(rates: RateLimits) -> tuple[str, str]:
                   rates.platform_yaw_acceleration, "/s^2"))
 
 
-def unavailable_text(exc: mmplan.InputError) -> str:
-    """``mmplan robots``: why a built-in robot cannot be built here (its files or Pinocchio
-    are not installed), with the command that installs them."""
+def unavailable_text(exc: mmplan.InputError) -> tuple[str, str]:
+    """``mmplan robots``: why a built-in robot cannot be built here, as ("not installed", the
+    command that installs its files) or ("not available", the problem)."""
     from mmplan.extras import install_command
 
     hint = install_command("robots")
     if hint in exc.problem:
-        return f"not installed ({hint})"
-    return f"not available: {exc.problem}"
+        return "not installed", hint
+    return "not available", exc.problem
 
 
 def print_export(done: Exported) -> None:

@@ -97,6 +97,25 @@ def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
     return robot, method
 
 
+def robot_unavailable(name_or_path: str | Path) -> str | None:
+    """Why the robot of a scenario file cannot be built here (one line: a built-in robot's
+    or a URDF robot's files or Pinocchio missing), None when nothing is seen missing. Builds
+    nothing (for listings).
+
+    Raises:
+        ScenarioError: as :func:`scenario_header`.
+    """
+    from mmplan.robot.library import robot_names, unavailable
+    from mmplan.scenario.robot_entry import urdf_unavailable
+
+    source = str(path_argument(name_or_path, "scenario"))
+    path = builtin_scenarios().get(source, Path(name_or_path))
+    robot = parse_yaml(read_text(path, source), source).get("robot")
+    if isinstance(robot, str):
+        return unavailable(robot) if robot in robot_names() else None
+    return urdf_unavailable(robot)
+
+
 def _is_file(path: Path) -> bool:
     """``path.is_file()``, False for a name the system refuses (too long, bad bytes)."""
     try:

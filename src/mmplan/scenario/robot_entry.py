@@ -58,6 +58,28 @@ def package_roots() -> list[Path]:
     return roots
 
 
+def urdf_unavailable(entry: object) -> str | None:
+    """Why a scenario's URDF robot entry cannot be built here, one line (Pinocchio missing, a
+    ``package://`` file that no package folder holds), None when nothing is seen missing or
+    the entry is not a URDF robot. Reads no URDF (for listings: ``mmplan scenarios``; a new-user
+    trial found TIAGo-with-a-pen scenarios listed as installed without example-robot-data)."""
+    if not isinstance(entry, dict) or not isinstance(entry.get("urdf"), str):
+        return None
+    import importlib.util
+
+    if importlib.util.find_spec("pinocchio") is None:
+        from mmplan.extras import install_command
+
+        return f"URDF robots need Pinocchio: {install_command('urdf')}"
+    urdf = str(entry["urdf"])
+    if urdf.startswith(PACKAGE_SCHEME):
+        try:
+            _package_file(urdf, "robot.urdf")
+        except InputError as exc:
+            return exc.problem
+    return None
+
+
 def _package_file(uri: str, key: str) -> Path:
     rest = uri[len(PACKAGE_SCHEME):]
     name, _, relative = rest.partition("/")

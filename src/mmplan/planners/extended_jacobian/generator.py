@@ -212,7 +212,8 @@ def build_functions(
         if notify is not None:
             notify(
                 f"the generator of {robot.name} is large ({size} operations): it runs on "
-                "CasADi's virtual machine (codegen: true compiles it once, for minutes)"
+                "CasADi's virtual machine (codegen: true under planner: in the scenario "
+                "compiles it once, for minutes)"
             )
         codegen = False
 
