@@ -172,6 +172,15 @@ def test_missing_scenario_file_exits_2(tmp_path: Path) -> None:
     result = run("plan", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "out"))
     assert result.exit_code == 2
     assert "nope.yaml: no such file and no built-in scenario of that name" in result.stderr
+    assert "did you mean" not in result.stderr  # nothing close
+
+
+def test_a_misspelt_scenario_name_gets_the_close_one(tmp_path: Path) -> None:
+    """New-user trial: ``youbot3r-obstacle`` listed all built-ins without the close match."""
+    result = run("plan", "youbot3r-obstacle", "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2
+    assert "did you mean youbot3r-obstacles? built-ins:" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
 
 
 def _reachable_goal(t_reach: float) -> list[float]:

@@ -69,8 +69,12 @@ def load_scenario(name_or_path: str | Path, *, require_planner: bool = True,
     if not _is_file(path):
         builtins = builtin_scenarios()
         if source not in builtins:
+            import difflib
+
+            close = difflib.get_close_matches(source, list(builtins), n=1)
+            hint = f"did you mean {close[0]}? " if close else ""
             raise ScenarioError(source, "", "no such file and no built-in scenario of that name; "
-                                f"built-ins: {', '.join(builtins) or 'none'}")
+                                f"{hint}built-ins: {', '.join(builtins) or 'none'}")
         path = builtins[source]
     text = read_text(path, source)  # at most MAX_FILE_BYTES, UTF-8
     return Scenario.from_dict(parse_yaml(text, source), source, require_planner=require_planner,
