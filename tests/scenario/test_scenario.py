@@ -169,6 +169,11 @@ def test_polynomial_path_velocity_matches_finite_differences(rng: np.random.Gene
         ({"planner": {"method": "magic"}}, "planner.method", "unknown method 'magic'"),
         ({"planner": {"method": METHOD, "eta": [0.1] * 5, "gain": 3}}, "planner.gain",
          "unknown key"),
+        # a close key is named (new-user trial: "goal.positon: unknown key" said no more)
+        ({"planner": {"method": METHOD, "eta": [0.1] * 5, "etta": 3}}, "planner.etta",
+         "unknown key (did you mean eta?)"),
+        ({"goal": {"positon": [1.0, 0.0, 0.3]}}, "goal.positon",
+         "unknown key (did you mean position?)"),
         ({"limits": {"torque": {"min": [-1.5, -1.5, -1, 1, -5]}}}, "limits.torque.min[3]",
          "min 1 > max 0"),
         ({"limits": {"joints": {"min": [0, 0]}}}, "limits.joints.min",

@@ -179,7 +179,7 @@ class Scenario:
         try:
             spec = ScenarioSpec.model_validate(dict(data))
         except ValidationError as exc:
-            raise validation_error(exc, dict(data), source) from None
+            raise validation_error(exc, dict(data), source, model=ScenarioSpec) from None
         return cls(spec, source, require_planner=require_planner, check_start=check_start,
                    base_dir=base_dir, robot=robot)
 
@@ -283,7 +283,8 @@ def _settings(planner: Mapping[str, Any], source: str, required: bool) -> Planne
     try:
         return model.model_validate(dict(planner))
     except ValidationError as exc:
-        raise validation_error(exc, dict(planner), source, prefix="planner") from None
+        raise validation_error(exc, dict(planner), source, prefix="planner",
+                               model=model) from None
 
 
 def _task(goal: GoalSpec) -> Task:

@@ -131,7 +131,7 @@ def _key_path(loc: Sequence[int | str], data: Any) -> str:
 def _problem(error: Mapping[str, Any]) -> str:
     kind, msg = error["type"], str(error["msg"])
     if kind == "extra_forbidden":
-        return "unknown key"
+        return msg if msg.startswith("unknown key") else "unknown key"
     if kind == "missing":
         return "required key missing"
     value = error.get("input")
@@ -145,10 +145,55 @@ def _problem(error: Mapping[str, Any]) -> str:
     return msg
 
 
+def _close_key(model: Any, loc: list[int | str]) -> str | None:
+    """The key of ``model`` at ``loc``'s parent closest to its last part (difflib), None when
+    none is close or the schema cannot say (a new-user trial: ``goal.positon: unknown key``
+    named no alternative). Parts the schema does not know (a union's tag) are passed over."""
+    import difflib
+
+    try:
+        schema = model.model_json_schema()
+    except Exception:  # noqa: BLE001  # a schema pydantic cannot write: no suggestion
+        return None
+    defs = schema.get("$defs", {})
+
+    def options(node: Any) -> list[dict[str, Any]]:
+        out, todo = [], [node]
+        while todo:
+            item = todo.pop()
+            if not isinstance(item, dict):
+                continue
+            if "$ref" in item:
+                todo.append(defs.get(str(item["$ref"]).rsplit("/", 1)[-1]))
+                continue
+            for group in ("anyOf", "oneOf", "allOf"):
+                todo.extend(item.get(group, []))
+            out.append(item)
+        return out
+
+    nodes = options(schema)
+    for part in loc[:-1]:
+        below: list[dict[str, Any]] = []
+        for node in nodes:
+            if isinstance(part, int) and "items" in node:
+                below += options(node["items"])
+            elif isinstance(part, str) and part in node.get("properties", {}):
+                below += options(node["properties"][part])
+        nodes = below or nodes  # a union's tag: the same level
+    keys = sorted({k for node in nodes for k in node.get("properties", {})})
+    close = difflib.get_close_matches(str(loc[-1]), keys, n=1) if loc else []
+    return close[0] if close else None
+
+
 def validation_error(exc: ValidationError, data: Any, source: str,
-                     prefix: str = "") -> ScenarioError:
-    """One-line :class:`ScenarioError` from the first error of a pydantic ``ValidationError``."""
+                     prefix: str = "", model: Any = None) -> ScenarioError:
+    """One-line :class:`ScenarioError` from the first error of a pydantic ``ValidationError``
+    (``model``: the model validated, whose keys suggest a close one for an unknown key)."""
     error: dict[str, Any] = dict(exc.errors()[0])
+    if error["type"] == "extra_forbidden" and model is not None:
+        close = _close_key(model, list(error["loc"]))
+        if close:
+            error["msg"] = f"unknown key (did you mean {close}?)"
     loc: list[int | str] = list(error["loc"])
     ctx: dict[str, Any] = dict(error.get("ctx") or {})
     key = ctx.get("key")

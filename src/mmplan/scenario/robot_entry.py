@@ -202,7 +202,8 @@ def robot_of_entry(entry: Any, base_dir: Path, source: str = "scenario.yaml") ->
         try:
             entry = UrdfRobotSpec.model_validate(dict(entry))
         except ValidationError as exc:
-            raise validation_error(exc, dict(entry), source, prefix="robot") from None
+            raise validation_error(exc, dict(entry), source, prefix="robot",
+                                   model=UrdfRobotSpec) from None
     if not isinstance(entry, str | UrdfRobotSpec):
         raise InputError("robot", f"expected a robot name or a URDF robot mapping, got "
                          f"{type(entry).__name__}")
