@@ -153,7 +153,7 @@ def _close_key(model: Any, loc: list[int | str]) -> str | None:
 
     try:
         schema = model.model_json_schema()
-    except Exception:  # noqa: BLE001  # a schema pydantic cannot write: no suggestion
+    except Exception:  # a schema pydantic cannot write: no suggestion
         return None
     defs = schema.get("$defs", {})
 
