@@ -135,7 +135,12 @@ RECENT_NS = 3_000_000_000
 
 class _Index:
     """path -> [size, mtime_ns, ctime_ns, inode, sha256 of the contents], read once per
-    process from the cache folder and written back (atomically) when it gained entries."""
+    process from the cache folder and written back (atomically) when it gained entries, with
+    the entries of files that are gone left out.
+
+    One index per installed mmplan (its folder's hash in the file name): a single index for
+    every checkout on a machine kept growing (341 entries here after a day of clones, 0.4 ms
+    to parse in every process's first plan, against about 0.1 ms for one tree's)."""
 
     def __init__(self) -> None:
         self.entries: dict[str, list[Any]] | None = None
@@ -144,7 +149,7 @@ class _Index:
     def _path(self) -> Path:
         from mmplan.compile.codegen import cache_dir  # codegen imports nothing of this module
 
-        return cache_dir() / "source_hashes.json"
+        return cache_dir() / f"source_hashes_{_TREE}.json"
 
     def get(self) -> dict[str, list[Any]]:
         if self.entries is None:
@@ -161,13 +166,17 @@ class _Index:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+            kept = {k: v for k, v in self.get().items() if os.path.exists(k)}
             with os.fdopen(fd, "w") as out:
-                json.dump(dict(self.get()), out)
+                json.dump(kept, out)
             os.replace(tmp, path)
         except OSError:
             pass  # no index: hashed again next time
 
 
+#: This mmplan's folder, hashed: the name of its index (:class:`_Index`).
+_TREE = hashlib.sha256(os.path.dirname(os.path.dirname(os.path.abspath(__file__))).encode()
+                       ).hexdigest()[:12]  # fmt: skip
 _INDEX = _Index()
 
 
