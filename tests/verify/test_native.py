@@ -11,10 +11,10 @@ import pytest
 
 from mmplan import Problem, Trajectory, get_robot
 from mmplan.compile.codegen import compiler
+from mmplan.robot.compiled import MAX_INSTRUCTIONS
 from mmplan.verify import check as check_module
 from mmplan.verify.check import check
 from mmplan.verify.native import (
-    MAX_INSTRUCTIONS,
     NAMES,
     check_functions,
     compiled_checks,

@@ -490,19 +490,16 @@ class _Pattern:
 
     @classmethod
     def read(cls, sp: Any) -> _Pattern:
-        nrow, ncol = int(sp[0]), int(sp[1])
-        if int(sp[2]) == 1:  # dense (a sparse pattern's first column starts at 0)
-            return cls((nrow, ncol))
-        starts = [int(sp[2 + j]) for j in range(ncol + 1)]
-        rows = np.array([int(sp[3 + ncol + k]) for k in range(starts[-1])], dtype=np.intp)
-        cols = np.repeat(np.arange(ncol), np.diff(starts))
-        return cls((nrow, ncol), rows, cols)
+        """The pattern a generated ``*_sparsity_*`` function returns (a C pointer)."""
+        ncol = int(sp[1])
+        length = 3 if int(sp[2]) == 1 else 3 + ncol + int(sp[2 + ncol])
+        return cls.parse(np.array([int(sp[k]) for k in range(length)], dtype=np.int64), 0)[0]
 
     @classmethod
     def parse(cls, numbers: NDArray[np.int64], at: int) -> tuple[_Pattern, int]:
-        """The pattern stored at ``numbers[at:]`` (as :meth:`read`) and where the next starts."""
+        """The pattern stored at ``numbers[at:]`` and where the next starts."""
         nrow, ncol = int(numbers[at]), int(numbers[at + 1])
-        if int(numbers[at + 2]) == 1:
+        if int(numbers[at + 2]) == 1:  # dense (a sparse pattern's first column starts at 0)
             return cls((nrow, ncol)), at + 3
         starts = numbers[at + 2 : at + 3 + ncol]
         nnz = int(starts[-1])

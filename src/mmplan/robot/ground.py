@@ -82,7 +82,7 @@ def floor_clearances(robot: Robot, q: Array, ground: float) -> Array:
     if natives is not None:  # the same heights from the compiled collision points, same bits
         radii = np.asarray(robot.collision_radii, dtype=float)[list(idx)]
         z = natives.many("collision_points", q)[:, [3 * i + 2 for i in idx]]  # (N, G)
-        return np.asarray(z - (radii + 0.0) - float(ground), dtype=float)
+        return np.asarray(z - radii - float(ground), dtype=float)
     fn = robot._shared.get("floor_clearance_fn")
     if fn is None:  # c_i(q) at h = 0: only the ground spheres' heights, one small function
         fn = ca.Function("floor_clearance", [robot.symbols.q], [floor_clearance_sym(robot, 0.0)])

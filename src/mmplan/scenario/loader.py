@@ -81,15 +81,20 @@ def load_scenario(name_or_path: str | Path, *, require_planner: bool = True,
                               check_start=check_start, base_dir=path.resolve().parent)
 
 
+def _header_data(name_or_path: str | Path) -> tuple[str, dict[str, Any]]:
+    """(source, the parsed YAML) of a scenario file or built-in name, not validated."""
+    source = str(path_argument(name_or_path, "scenario"))
+    path = builtin_scenarios().get(source, Path(name_or_path))
+    return source, parse_yaml(read_text(path, source), source)
+
+
 def scenario_header(name_or_path: str | Path) -> tuple[str, str]:
     """(robot, planner method) of a scenario file, read without full validation (for listings).
 
     Raises:
         ScenarioError: missing file, malformed YAML, or no robot / planner.method.
     """
-    source = str(path_argument(name_or_path, "scenario"))
-    path = builtin_scenarios().get(source, Path(name_or_path))
-    data = parse_yaml(read_text(path, source), source)
+    source, data = _header_data(name_or_path)
     planner = data.get("planner")
     method = planner.get("method") if isinstance(planner, dict) else None
     robot = data.get("robot")
@@ -112,9 +117,7 @@ def robot_unavailable(name_or_path: str | Path) -> str | None:
     from mmplan.robot.library import robot_names, unavailable
     from mmplan.scenario.robot_entry import urdf_unavailable
 
-    source = str(path_argument(name_or_path, "scenario"))
-    path = builtin_scenarios().get(source, Path(name_or_path))
-    robot = parse_yaml(read_text(path, source), source).get("robot")
+    robot = _header_data(name_or_path)[1].get("robot")
     if isinstance(robot, str):
         return unavailable(robot) if robot in robot_names() else None
     return urdf_unavailable(robot)

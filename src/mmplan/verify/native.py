@@ -29,7 +29,6 @@ import casadi as ca
 
 from mmplan.compile import codegen
 from mmplan.robot import compiled as robot_compiled
-from mmplan.robot.compiled import FLAGS, MAX_INSTRUCTIONS
 from mmplan.robot.robot import Robot
 
 #: The robot functions the checker maps over the samples (in the robot's compiled library).
@@ -71,7 +70,8 @@ def compiled_checks(robot: Robot, *, build: bool = False) -> Iterator[None]:
         robot: The robot whose trajectories will be checked.
         build: Build a missing library in the background (a C compiler in a thread; the
             block's end waits for it unless the block ends with an interrupt), for a model of
-            at most ``MAX_INSTRUCTIONS`` operations (:func:`mmplan.robot.compiled.start_build`:
+            at most :data:`mmplan.robot.compiled.MAX_INSTRUCTIONS` operations
+            (:func:`mmplan.robot.compiled.start_build`:
             the robot's numeric API uses it too, from the next run on).
     """
     if codegen.compiler() is None:
@@ -100,5 +100,4 @@ def library_path(robot: Robot) -> Path | None:
     return None if path is None else Path(path)
 
 
-__all__ = ["FLAGS", "MAX_INSTRUCTIONS", "NAMES", "check_functions", "compiled_checks",
-           "library_path"]
+__all__ = ["NAMES", "check_functions", "compiled_checks", "library_path"]
