@@ -43,7 +43,7 @@ def test_c_peaks_equal_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
         dq = rng.normal(0.0, 1.0, (N, 5))
         if trial % 7 == 0:
             dq[rng.integers(0, N), 0] = np.nan
-        c = compiled(t, q, dq, *model._columns)
+        c = compiled(t, q, dq, *model.peak_columns)
         ref = model.interval_ratios_numpy(t, q, dq)
         np.testing.assert_allclose(c, ref, rtol=1e-14, atol=0.0)
         assert np.array_equal(np.isnan(c), np.isnan(ref))

@@ -27,7 +27,7 @@ def test_prefetched_library_is_used_and_matches_the_reference(
         assert topp_passes._PENDING  # nothing loaded: a build was started
         topp_passes.prefetch()  # a second call starts nothing more (one build for any row count)
         assert len(topp_passes._PENDING) == 1
-        kernels = topp_passes._native()
+        kernels = topp_passes.kernels()
         assert not topp_passes._PENDING
         assert isinstance(kernels, native.Kernels)
         assert len(list(tmp_path.glob("topp_native_*.so"))) == 1  # built once, then loaded
@@ -57,7 +57,7 @@ def test_idle_loads_take_libraries_on_disk_and_never_build(
         assert not native.kernels.cache_info().currsize
         assert not native_peaks.peaks.cache_info().currsize
         topp_passes.prefetch()
-        topp_passes._native()  # the build is on disk now
+        topp_passes.kernels()  # the build is on disk now
         native.kernels.cache_clear()
         native_peaks.peaks.cache_clear()
         topp_passes.load_passes()

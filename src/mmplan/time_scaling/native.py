@@ -47,6 +47,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.compile import codegen, threads
+from mmplan.time_scaling import native_rounds
 
 FLAGS = ("-O2", "-march=native", "-fno-trapping-math", "-fvect-cost-model=dynamic")
 #: For a compiler that rejects one of :data:`FLAGS` (the loops then stay scalar; same bits).
@@ -250,7 +251,8 @@ int mmplan_topp_forward(int n, int N, const double *alpha, const double *beta,
     free(s);
     return 0;
 }
-"""
+""" + native_rounds.SOURCE
+
 
 class Kernels:
     """The compiled passes of one loaded library (:func:`kernels`)."""
@@ -265,6 +267,12 @@ class Kernels:
         self._fw.argtypes = [i, i, p, p, p, p, p, p, p, p, d, p]
         #: Split the backward pass's fixed pairs over two threads when a core is idle.
         self.split = True
+        #: The re-timing rounds (:mod:`.native_rounds`).
+        self.rounds = native_rounds.Rounds(lib)
+
+    def pair(self) -> int | None:
+        """The thread helper's ``mmplan_pair`` for a backward pass now (None: one thread)."""
+        return _pair() if self.split and threads.idle_core() else None
 
     def backward(
         self, alpha: Array, beta: Array, g: Array, sigma: Array, x_upper: Array, zone: Array,
@@ -275,7 +283,7 @@ class Kernels:
         n = alpha.shape[1]
         out = np.empty((3, top + 1))
         arrays = _contiguous(alpha, beta, g, sigma, x_upper, zone)  # alive during the call
-        pair = _pair() if self.split and threads.idle_core() else None
+        pair = self.pair()
         base, row = out.ctypes.data, out.strides[0]
         status = self._bw(n, top, *[a.ctypes.data for a in arrays], last[0], last[1],
                           base, base + row, base + 2 * row, pair)  # fmt: skip

@@ -141,6 +141,8 @@ class Peaks:
         self._fn.restype = None
         i, p = ctypes.c_int, ctypes.c_void_p  # arrays by address
         self._fn.argtypes = [i, i, p, p, p, i, p, p, p, p, p]
+        #: The loop's address (the re-timing rounds call it from C, :mod:`.native_rounds`).
+        self.address = int(ctypes.cast(self._fn, ctypes.c_void_p).value or 0)
 
     def __call__(
         self, t: Array, q: Array, dq: Array, kind: Array, j1: Array, j2: Array, limit: Array

@@ -284,7 +284,7 @@ def load_peaks() -> None:
         native_peaks.peaks()
 
 
-def _native() -> native.Kernels | None:
+def kernels() -> native.Kernels | None:
     """The C loops (after a build :func:`prefetch` started has finished), None without them."""
     while _PENDING:
         _PENDING.pop().join()
@@ -318,9 +318,9 @@ def backward(
     infinite limits. The same steps give the same values whatever the first interval."""
     n = alpha.shape[1]
     N = len(alpha) if start is None else start + 2
-    kernels = _native()
-    if kernels is not None:
-        return kernels.backward(alpha, beta, g, sigma, x_upper, zone, last, N - 2)
+    compiled = kernels()
+    if compiled is not None:
+        return compiled.backward(alpha, beta, g, sigma, x_upper, zone, last, N - 2)
     chunk = passes(n)[0]
     n_s = 2 + 2 * n + RAW * n + 2
     k = N - 1
@@ -351,9 +351,9 @@ def forward(
 ) -> Array:
     """x_1 .. x_{N-1} of the greedy pass from x_0 = ``x_start`` (``zone`` as :func:`backward`)."""
     N, n = alpha.shape
-    kernels = _native()
-    if kernels is not None:
-        return kernels.forward(alpha, beta, g, sigma, x_upper, zone, K_lo, K_hi, x_start)
+    compiled = kernels()
+    if compiled is not None:
+        return compiled.forward(alpha, beta, g, sigma, x_upper, zone, K_lo, K_hi, x_start)
     chunk = passes(n)[1]
     n_s = 1 + 2 * n + RAW * n + 2
     state = np.concatenate([[x_start], zone, alpha[0], beta[0], g[0], sigma[:1], x_upper[:1]])

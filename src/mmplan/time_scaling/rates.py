@@ -251,11 +251,11 @@ class RateModel:
             return np.zeros((max(len(t) - 1, 0), len(self.quantities)))
         compiled = native_peaks.peaks()
         if compiled is not None:  # the same arithmetic in one C loop (:mod:`.native_peaks`)
-            return compiled(t, q, dq, *self._columns)
+            return compiled(t, q, dq, *self.peak_columns)
         return self.interval_ratios_numpy(t, q, dq)
 
     @cached_property
-    def _columns(self) -> tuple[Array, Array, Array, Array]:
+    def peak_columns(self) -> tuple[Array, Array, Array, Array]:
         """(kind: 0 velocity / 1 acceleration, first and second coordinate (-1: none),
         limit) of every quantity, for :mod:`.native_peaks`."""
         qs = self.quantities

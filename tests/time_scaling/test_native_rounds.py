@@ -1,0 +1,136 @@
+"""The re-timing rounds in C (time_scaling/native_rounds.py) against the NumPy loop of
+time_scaling/retime.py, its specification: every output the same to the bit, on paths that
+need several rounds, that run out of rounds, with effort rows, from rest and from the largest
+controllable rate, infeasible, and on the paper scenario's generator path."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+
+import mmplan.time_scaling.retime as retime
+from mmplan.robot.limits import RateLimits
+from mmplan.time_scaling import passes
+from mmplan.time_scaling.rates import RateModel
+from tests.time_scaling.test_rates import _planar_path
+
+pytestmark = pytest.mark.skipif(passes.kernels() is None, reason="no C compiler")
+
+RATES = RateLimits(acceleration={"q1": 0.3}, platform_speed=0.8, platform_acceleration=0.4)
+
+
+def _model(rates: RateLimits = RATES) -> RateModel:
+    return RateModel.build(("x", "y", "theta", "q1"), rates, planar=(0, 1, 2), linear=("x", "y"))
+
+
+def _both(monkeypatch: pytest.MonkeyPatch, *args: Any, **kwargs: Any) -> tuple[Any, Any]:
+    """retime_path compiled (checked to run in C) and by the NumPy loop."""
+    calls: list[int] = []
+    compiled_rounds: Callable[..., Any] = retime._compiled_rounds
+
+    def counted(*a: Any, **k: Any) -> Any:
+        out = compiled_rounds(*a, **k)
+        calls.append(out is not None)
+        return out
+
+    monkeypatch.setattr(retime, "_compiled_rounds", counted)
+    compiled = retime.retime_path(*args, **kwargs)
+    assert calls == [True]
+    monkeypatch.setattr(retime, "_compiled_rounds", lambda *a, **k: None)
+    plain = retime.retime_path(*args, **kwargs)
+    monkeypatch.setattr(retime, "_compiled_rounds", compiled_rounds)
+    return compiled, plain
+
+
+def _assert_same(a: retime.Retimed, b: retime.Retimed) -> None:
+    for name in ("x", "v", "t"):
+        np.testing.assert_array_equal(getattr(a.scaling, name), getattr(b.scaling, name))
+    assert a.scaling.feasible == b.scaling.feasible
+    assert a.scaling.first_empty == b.scaling.first_empty
+    np.testing.assert_array_equal(a.dq, b.dq)
+    np.testing.assert_array_equal(a.ddq, b.ddq)
+    assert (a.rounds, a.step_ratio) == (b.rounds, b.step_ratio)
+    assert (a.peaks is None) == (b.peaks is None)
+    if a.peaks is not None:
+        np.testing.assert_array_equal(a.peaks, b.peaks)
+
+
+@pytest.mark.parametrize("samples", [2, 3, 20, 57])
+def test_rounds_equal_the_numpy_loop(monkeypatch: pytest.MonkeyPatch, samples: int) -> None:
+    s, q, qs, qss = _planar_path(samples)
+    a, b = _both(monkeypatch, s, q, qs, qss, _model(), w_max=5.0)
+    _assert_same(a, b)
+    if samples == 20:
+        assert a.rounds > 1  # the interpolant needed tightening (test_rates.py)
+
+
+@pytest.mark.parametrize("max_rounds", [1, 2, 3])
+def test_rounds_run_out_as_the_numpy_loop(monkeypatch: pytest.MonkeyPatch, max_rounds: int) -> None:
+    """The whole motion slowed down after the last round: the same numbers."""
+    monkeypatch.setattr(retime, "MAX_ROUNDS", max_rounds)
+    s, q, qs, qss = _planar_path(20)
+    a, b = _both(monkeypatch, s, q, qs, qss, _model(), w_max=5.0)
+    _assert_same(a, b)
+    assert a.rounds == max_rounds and a.step_ratio <= 1.0
+
+
+@pytest.mark.parametrize("x_start", [0.0, None])
+def test_rounds_with_effort_rows(monkeypatch: pytest.MonkeyPatch, x_start: float | None) -> None:
+    """Two effort-like rows (affine in x, v around a gravity term) besides the rate rows, with
+    a velocity limit of one coordinate too, from rest and from the largest controllable rate."""
+    s, q, qs, qss = _planar_path(60)
+    rng = np.random.default_rng(3)
+    N = len(s)
+    rows = (rng.normal(0.0, 1.0, (N, 2)), rng.normal(0.0, 1.0, (N, 2)),
+            rng.normal(0.0, 0.2, (N, 2)), np.array([-2.0, -np.inf]),
+            np.array([2.0, 1.5]))  # fmt: skip
+    rates = RateLimits(velocity={"q1": 0.5}, acceleration={"q1": 0.3}, platform_speed=0.8,
+                       platform_acceleration=0.4, platform_yaw_rate=0.4)  # fmt: skip
+    a, b = _both(monkeypatch, s, q, qs, qss, _model(rates), rows, w_max=5.0, x_start=x_start)
+    _assert_same(a, b)
+    assert a.scaling.feasible
+
+
+def test_infeasible_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An effort row whose gravity term lies outside its zone: no controllable set; no peaks."""
+    s, q, qs, qss = _planar_path(30)
+    N = len(s)
+    rows = (np.ones((N, 1)), np.zeros((N, 1)), np.full((N, 1), 3.0), np.array([-1.0]),
+            np.array([1.0]))  # fmt: skip
+    a, b = _both(monkeypatch, s, q, qs, qss, _model(), rows, w_max=5.0)
+    _assert_same(a, b)
+    assert not a.scaling.feasible and a.peaks is None
+
+
+def test_unbounded_rate_raises_as_before() -> None:
+    """No velocity limit and no w_max: the NumPy loop's error, not a C result."""
+    s, q, qs, qss = _planar_path(20)
+    model = _model(RateLimits(acceleration={"q1": 0.3}))
+    with pytest.raises(ValueError, match="unbounded"):
+        retime.retime_path(s, q, qs, qss, model, w_max=np.inf)
+
+
+def test_paper_scenario_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The youbot3r-obstacles generator path (607 samples, effort rows with the consistency
+    column, several rounds with the stall test): the planner's own call, both ways."""
+    import mmplan
+    import mmplan.planners.extended_jacobian.time_scaling as ej_time_scaling
+
+    seen: list[tuple[Any, Any]] = []
+    original = ej_time_scaling.retime_path
+
+    def grab(*a: Any, **k: Any) -> Any:
+        seen.append((a, k))
+        return original(*a, **k)
+
+    monkeypatch.setattr(ej_time_scaling, "retime_path", grab)
+    scenario = mmplan.load_scenario("youbot3r-obstacles-torque")
+    mmplan.get_planner(scenario.method)().plan(scenario.build())
+    assert seen
+    args, kwargs = seen[0]
+    a, b = _both(monkeypatch, *args, **kwargs)
+    _assert_same(a, b)
+    assert a.rounds >= 3
