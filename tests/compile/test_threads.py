@@ -236,3 +236,75 @@ def test_a_process_that_exits_waits_for_the_helpers_build(tmp_path: Path) -> Non
                          timeout=120, check=True)  # fmt: skip
     assert run.stdout.strip() == "1"  # started in the background, not finished
     assert list(tmp_path.glob(f"{threads.PREFIX}_*.so"))
+
+
+def _stepper() -> cg.NativeFunction:
+    """y = [x0 + x1, x1, x0 + x1 - 10]: a state x0 advanced by x1 a call, and an 'error'."""
+    x = ca.SX.sym("x", 2)
+    y = ca.vertcat(x[0] + x[1], x[1], x[0] + x[1] - 10.0)
+    library = cg.compile_library([ca.Function("mmplan_thr_step", [x], [y])], "thr", ("-O0",))
+    assert library is not None
+    return cg.NativeFunction(library, "mmplan_thr_step")
+
+
+def _chain(native: cg.NativeFunction, depth: int = 8) -> tuple[threads.Chain, np.ndarray,
+                                                                np.ndarray]:  # fmt: skip
+    X, Y = np.zeros((depth, 2)), np.zeros((depth, 3))
+    follow = threads.Follow(src=0, dst=0, len=1, err_at=2, err_step=1, err_count=1)
+    return threads.Chain(*native.signature(), X, Y, follow), X, Y
+
+
+def test_a_chain_runs_ahead_from_each_output(cache: Path) -> None:
+    """Slot i's input is slot i - 1's with the state replaced by its output; it ends at its
+    limit, after a slot whose error falls below the stop, and when stopped; afterwards the
+    function's own buffers are its direct calls' again."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native = _stepper()
+    chain, X, Y = _chain(native)
+    X[0] = [0.0, 1.0]
+    chain.start(5, -np.inf)
+    assert [chain.slot(i) for i in range(5)] == [0] * 5
+    assert chain.slot(5) == -2 and chain.ready(5)  # the limit
+    np.testing.assert_array_equal(Y[:5, 0], [1.0, 2.0, 3.0, 4.0, 5.0])
+    np.testing.assert_array_equal(X[:5, 0], [0.0, 1.0, 2.0, 3.0, 4.0])
+    chain.stop()
+    X[0] = [0.0, 3.0]
+    chain.start(8, -6.5)  # errors -7, -4: ends after the first below -6.5
+    assert chain.slot(0) == 0 and chain.slot(1) == -2
+    chain.stop()
+    native.x[:] = [2.0, 5.0]
+    np.testing.assert_array_equal(native(), [7.0, 5.0, -3.0])  # not a slot's buffers
+    X[0] = [0.0, 1.0]
+    chain.start(8, -np.inf)
+    chain.stop()  # waits for the call in flight: the buffers are the caller's again
+    assert chain.slot(0) == -2 and chain.ready(0)
+    np.testing.assert_array_equal(native(), [7.0, 5.0, -3.0])
+    chain.close()
+    assert chain.ready(0) and chain.slot(0) == -2
+
+
+def test_a_speculation_that_follows_takes_every_chained_call(cache: Path) -> None:
+    """Speculation with a follow rule: one guess, then each call at the following input is a
+    chained slot (hits), the same outputs as direct calls; another input ends the chain."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    from mmplan.planners.extended_jacobian.prefetch import Speculation
+
+    assert threads.library() is not None  # built now (a fresh cache): guesses need it
+    native = _stepper()
+    follow = threads.Follow(src=0, dst=0, len=1, err_at=2, err_step=1, err_count=1)
+    spec = Speculation(native, enabled=True, follow=follow)
+    spec.guess(np.array([0.0, 2.0]), ahead=4, stop=-np.inf)
+    x = np.array([0.0, 2.0])
+    for _ in range(5):
+        y = spec.call(x)
+        native.x[:] = x
+        np.testing.assert_array_equal(y, native().copy())
+        x = np.array([y[0], 2.0])
+    assert (spec.hits, spec.misses) == (5, 0) and not spec.pending  # the limit: 1 + 4
+    spec.guess(np.array([0.0, 2.0]), ahead=4, stop=-np.inf)
+    spec.call(np.array([0.0, 2.0]))
+    assert spec.pending
+    np.testing.assert_array_equal(spec.call(np.array([9.0, 1.0])), [10.0, 1.0, 0.0])
+    assert (spec.hits, spec.misses) == (6, 1) and not spec.pending

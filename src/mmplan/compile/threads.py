@@ -33,11 +33,12 @@ import ctypes
 import os
 import threading
 import time
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
 from mmplan.compile import codegen
-from mmplan.compile.worker_c import SOURCE, SPIN_S
+from mmplan.compile.worker_c import CHAIN_DEPTH, SOURCE, SPIN_S
 
 FLAGS = ("-O2", "-pthread")
 PREFIX = "threads"
@@ -93,6 +94,16 @@ class _Library:
         lib.mmplan_job_wait.argtypes = [vp]
         lib.mmplan_job_done.argtypes = [vp]
         lib.mmplan_spinning.argtypes = []
+        i, d = ctypes.c_int, ctypes.c_double
+        lib.mmplan_chain_new.argtypes = [vp, vp, vp, vp, vp, i, vp, vp, *[i] * 9]
+        lib.mmplan_chain_new.restype = vp
+        lib.mmplan_chain_start.argtypes = [vp, i, d]
+        lib.mmplan_chain_stop.argtypes = [vp]
+        lib.mmplan_chain_stop.restype = None
+        lib.mmplan_chain_ready.argtypes = [vp, i]
+        lib.mmplan_chain_slot.argtypes = [vp, i]
+        lib.mmplan_chain_free.argtypes = [vp]
+        lib.mmplan_chain_free.restype = None
         #: Address of ``void mmplan_pair(void (*task)(void *), void *a, void *b)`` for other
         #: libraries' C (task(a) here, task(b) on the worker).
         self.pair = ctypes.cast(lib.mmplan_pair, ctypes.c_void_p).value
@@ -100,6 +111,9 @@ class _Library:
         self.start, self.wait = lib.mmplan_job_start, lib.mmplan_job_wait
         self.done = lib.mmplan_job_done
         self.spinning = lib.mmplan_spinning
+        self.chain_new, self.chain_free = lib.mmplan_chain_new, lib.mmplan_chain_free
+        self.chain_start, self.chain_stop = lib.mmplan_chain_start, lib.mmplan_chain_stop
+        self.chain_ready, self.chain_slot = lib.mmplan_chain_ready, lib.mmplan_chain_slot
 
 
 @lru_cache(maxsize=1)
@@ -180,5 +194,92 @@ class Job:
             self.close()
 
 
-__all__ = ["FLAGS", "PREFIX", "SOURCE", "SPIN_S", "Job", "cores", "idle_core", "library",
-           "prefetch", "ready"]
+@dataclass(frozen=True)
+class Follow:
+    """How a :class:`Chain`'s next input follows from its last call: x_{i+1} is x_i with
+    ``len`` values at ``dst`` replaced by y_i's at ``src``; the chain ends after a call whose
+    values y[err_at + k err_step] (k < err_count) fall below its ``stop`` (NaN ignored)."""
+
+    src: int
+    dst: int
+    len: int
+    err_at: int
+    err_step: int
+    err_count: int
+
+
+class Chain:
+    """Calls of one generated function run ahead on the worker thread (``mmplan_chain`` of
+    :data:`SOURCE`): :meth:`start` from an input, then each next input follows from the
+    last output (:class:`Follow`), up to ``depth`` calls, into the rows of ``X`` and ``Y``.
+    A compiled rollout chunk's next call starts where the last one ended, so the worker
+    runs the chunks one after the other while the caller checks them: no wait for the
+    caller between two chunks. While the worker runs another caller's task, the first call
+    is evaluated in :meth:`start` and the chain ends there.
+
+    Args:
+        function, arg, res, iw, w, mem: As :class:`Job` (arg[0] and res[0] are set to the
+            slot's rows).
+        X, Y: The slots' inputs and outputs (depth, nx) and (depth, ny), C-contiguous,
+            kept alive by the caller until :meth:`close`.
+        follow: The next input's rule.
+    """
+
+    def __init__(self, function: Any, arg: Any, res: Any, iw: Any, w: Any, mem: int,
+                 X: Any, Y: Any, follow: Follow) -> None:  # fmt: skip
+        lib = library()
+        if lib is None:
+            raise OSError("no thread helper")
+        self._lib = lib
+        depth, nx = X.shape
+        address = ctypes.cast(function, ctypes.c_void_p)
+        pointers = (ctypes.cast(x, ctypes.c_void_p) for x in (arg, res, iw, w))
+        f = follow
+        self._job: int | None = lib.chain_new(
+            address, *pointers, mem, X.ctypes.data, Y.ctypes.data, nx, Y.shape[1], depth,
+            f.src, f.dst, f.len, f.err_at, f.err_step, f.err_count,
+        )  # fmt: skip
+        if not self._job:
+            raise OSError("no memory for a chain (or depth above CHAIN_DEPTH)")
+        self._keep = (function, arg, res, iw, w, X, Y)  # the worker reads them until close
+        self.running = False
+
+    def start(self, limit: int, stop: float) -> bool:
+        """Calls from X[0] (at most ``limit``; ``stop``: :class:`Follow`), after ending a
+        chain in flight; False when the worker was busy: slot 0 alone was computed here."""
+        self.running = True
+        return bool(self._lib.chain_start(self._job, limit, stop))
+
+    def ready(self, i: int) -> bool:
+        """Slot i is there or never will be (:meth:`slot` returns at once)."""
+        return self._job is None or bool(self._lib.chain_ready(self._job, i))
+
+    def slot(self, i: int) -> int:
+        """Wait for slot i: its call's return code (0: success), -2 when the chain ended
+        before it."""
+        return int(self._lib.chain_slot(self._job, i)) if self._job else -2
+
+    def stop(self) -> None:
+        """End the chain (waits for the call in flight) and free the worker."""
+        if self._job:
+            self._lib.chain_stop(self._job)
+        self.running = False
+
+    def done(self) -> bool:
+        """No call is running (nor will one start)."""
+        return not self.running
+
+    def close(self) -> None:
+        """Stop and free the chain (idempotent)."""
+        job, self._job = self._job, None
+        if job:
+            self._lib.chain_free(job)
+        self.running = False
+
+    def __del__(self) -> None:
+        if getattr(self, "_job", None):
+            self.close()
+
+
+__all__ = ["CHAIN_DEPTH", "FLAGS", "PREFIX", "SOURCE", "SPIN_S", "Chain", "Follow", "Job",
+           "cores", "idle_core", "library", "prefetch", "ready"]

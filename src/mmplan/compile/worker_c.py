@@ -12,6 +12,8 @@ from __future__ import annotations
 
 #: Seconds a worker spins for its next job before it sleeps (:data:`SOURCE`).
 SPIN_S = 0.005
+#: Most calls a chain runs ahead (``mmplan_chain``).
+CHAIN_DEPTH = 16
 
 SOURCE = r"""
 #include <pthread.h>
@@ -20,6 +22,9 @@ SOURCE = r"""
 #include <stdlib.h>
 #include <time.h>
 #include <unistd.h>
+#include <math.h>
+
+#define MMPLAN_CHAIN_DEPTH @CHAIN_DEPTH@
 
 enum { IDLE = 0, POSTED = 1, DONE = 2 };
 
@@ -211,6 +216,136 @@ void mmplan_job_free(mmplan_job *j) {
     mmplan_job_wait(j);
     free(j);
 }
-""".replace("SPIN_S", repr(SPIN_S))
 
-__all__ = ["SOURCE", "SPIN_S"]
+/* A chain: the calls of one function at x_0, x_1, ... on the worker, one after the other,
+   x_{i+1} being x_i with len values at dst replaced by y_i's at src (the state after a
+   chunk of steps: the next chunk's start), into the rows of X and Y (slots). It ends after
+   ``limit`` slots, a failed call, a slot whose values y[err_at + k err_step] (k < err_count)
+   fall below ``stop`` (NaN ignored, as NumPy's min then is NaN and not below), or
+   ``mmplan_chain_stop`` (checked between slots). The caller takes slot i when ``produced``
+   > i; the worker writes nothing a taken slot holds, and the caller reads nothing the
+   worker still writes. */
+typedef struct {
+    mmplan_fn f;
+    const double **arg;
+    double **res;
+    void *iw;
+    double *w;
+    int mem;
+    double *X, *Y;
+    int nx, ny, depth, src, dst, len, err_at, err_step, err_count;
+    double stop;
+    int limit;
+    atomic_int produced;
+    atomic_int cancel;
+    int ret[MMPLAN_CHAIN_DEPTH];
+    int started, posted;
+} mmplan_chain;
+
+static void chain_run(void *p) {
+    mmplan_chain *c = (mmplan_chain *)p;
+    for (int i = 0; i < c->limit; i++) {
+        if (atomic_load_explicit(&c->cancel, memory_order_acquire)) break;
+        double *x = c->X + (long)i * c->nx, *y = c->Y + (long)i * c->ny;
+        if (i > 0) {
+            const double *before = c->X + (long)(i - 1) * c->nx;
+            const double *out = c->Y + (long)(i - 1) * c->ny;
+            for (int k = 0; k < c->nx; k++) x[k] = before[k];
+            for (int k = 0; k < c->len; k++) x[c->dst + k] = out[c->src + k];
+        }
+        const double *arg0 = c->arg[0];
+        double *res0 = c->res[0];
+        c->arg[0] = x;
+        c->res[0] = y;
+        int r = c->f(c->arg, c->res, c->iw, c->w, c->mem);
+        c->arg[0] = arg0;  /* the caller's own calls use them after the chain */
+        c->res[0] = res0;
+        c->ret[i] = r;
+        atomic_store_explicit(&c->produced, i + 1, memory_order_release);
+        if (r) break;
+        int low = 0;
+        for (int k = 0; k < c->err_count; k++)
+            if (y[c->err_at + k * c->err_step] < c->stop) low = 1;
+        int nan = 0;
+        for (int k = 0; k < c->err_count; k++)
+            if (isnan(y[c->err_at + k * c->err_step])) nan = 1;
+        if (low && !nan) break;
+    }
+}
+
+mmplan_chain *mmplan_chain_new(void *f, void *arg, void *res, void *iw, void *w, int mem,
+                               double *X, double *Y, int nx, int ny, int depth, int src,
+                               int dst, int len, int err_at, int err_step, int err_count) {
+    if (depth < 1 || depth > MMPLAN_CHAIN_DEPTH) return NULL;
+    mmplan_chain *c = (mmplan_chain *)calloc(1, sizeof(mmplan_chain));
+    if (!c) return NULL;
+    c->f = (mmplan_fn)f;
+    c->arg = (const double **)arg;
+    c->res = (double **)res;
+    c->iw = iw;
+    c->w = w;
+    c->mem = mem;
+    c->X = X; c->Y = Y; c->nx = nx; c->ny = ny; c->depth = depth;
+    c->src = src; c->dst = dst; c->len = len;
+    c->err_at = err_at; c->err_step = err_step; c->err_count = err_count;
+    return c;
+}
+
+/* Ends the chain: no slot after the one running, which it waits for; releases the worker. */
+void mmplan_chain_stop(mmplan_chain *c) {
+    if (!c->started) return;
+    atomic_store_explicit(&c->cancel, 1, memory_order_release);
+    if (c->posted) mmplan_task_wait();
+    c->started = 0;
+    c->posted = 0;
+}
+
+/* Starts slots 0 .. limit - 1 from X's first row (stopping one in flight first): 1 when
+   posted to the worker; 0 when the worker is busy or no thread starts: then slot 0 alone
+   is computed here. */
+int mmplan_chain_start(mmplan_chain *c, int limit, double stop) {
+    mmplan_chain_stop(c);
+    c->limit = limit < 1 ? 1 : (limit > c->depth ? c->depth : limit);
+    c->stop = stop;
+    atomic_store(&c->produced, 0);
+    atomic_store(&c->cancel, 0);
+    c->started = 1;
+    c->posted = mmplan_task_post(chain_run, c);
+    if (!c->posted) {
+        c->limit = 1;
+        chain_run(c);
+    }
+    return c->posted;
+}
+
+/* 1 when slot i is there or never will be (the chain is over): mmplan_chain_slot returns
+   at once. */
+int mmplan_chain_ready(mmplan_chain *c, int i) {
+    if (!c->started || atomic_load_explicit(&c->produced, memory_order_acquire) > i) return 1;
+    return !c->posted || atomic_load_explicit(&W.state, memory_order_acquire) == DONE;
+}
+
+/* Waits for slot i: its call's return code (0: success), or -2 when the chain ended before
+   it (or is not running). */
+int mmplan_chain_slot(mmplan_chain *c, int i) {
+    int n = 0;
+    if (!c->started) return -2;
+    for (;;) {
+        if (atomic_load_explicit(&c->produced, memory_order_acquire) > i) return c->ret[i];
+        if (!c->posted || atomic_load_explicit(&W.state, memory_order_acquire) == DONE) {
+            if (atomic_load_explicit(&c->produced, memory_order_acquire) > i) return c->ret[i];
+            return -2;
+        }
+        relax();
+        if (++n % 4096 == 0) sched_yield();
+    }
+}
+
+void mmplan_chain_free(mmplan_chain *c) {
+    if (!c) return;
+    mmplan_chain_stop(c);
+    free(c);
+}
+""".replace("SPIN_S", repr(SPIN_S)).replace("@CHAIN_DEPTH@", str(CHAIN_DEPTH))
+
+__all__ = ["CHAIN_DEPTH", "SOURCE", "SPIN_S"]

@@ -88,7 +88,11 @@ def test_a_plan_cut_short_while_moving_passes_every_check_but_completion(
     assert np.linalg.norm(result.trajectory.dq[-1]) > 0.1  # moving at the end
     report = check(result.trajectory, problem, result.status)
     assert report.failures() == [], report.failures()
-    if t_max == 3.0:  # the same plan with v = 0 at the last sample: the defect
+    if t_max == 3.0:  # the same plan with v = 0 at the last sample: the defect (in the
+        # NumPy rounds, the specification of the compiled ones)
+        from mmplan.time_scaling import retime
+
+        monkeypatch.setattr(retime, "_compiled_rounds", lambda *a, **k: None)
         monkeypatch.setattr(topp.Scaling, "v_at_samples", property(lambda self: self.v))
         before = ExtendedJacobian().plan(problem)
         old = check(before.trajectory, problem, before.status)

@@ -53,6 +53,34 @@ def test_guesses_give_the_same_plan_to_the_bit() -> None:
         np.testing.assert_array_equal(getattr(runs[True], field), getattr(runs[False], field))
 
 
+def test_a_plan_runs_its_chunks_as_one_chain() -> None:
+    """The worker runs the rollout's chunks one after the other from one guess, each from the
+    last one's final state (a chain, prefetch.Speculation): one start for the plan's 13
+    chunks, every one taken (the same samples as without guesses: the test above)."""
+    planner, fns, problem = _plan_fns("youbot3r-obstacles-torque")
+    spec = fns._speculate()
+    spec.switch(True)  # guess whatever the machine's load
+    try:
+        assert spec._job is not None
+        starts: list[int] = []
+        original = spec._job.start
+
+        def counted(limit: int, stop: float) -> bool:
+            starts.append(limit)
+            return original(limit, stop)
+
+        spec._job.start = counted  # type: ignore[method-assign]
+        hits, misses = spec.hits, spec.misses
+        result = planner.plan(problem)  # type: ignore[attr-defined]
+        assert result.status.value == "reached"
+        assert spec.hits - hits == 13 and spec.misses == misses
+        assert len(starts) == 1 and starts[0] > 13  # t_max = 60 s: up to the chain's depth
+        assert not spec.pending  # none after the chunk that reached the goal
+        del spec._job.start
+    finally:
+        spec.follow_load = True
+
+
 def test_a_guess_at_another_input_is_dropped() -> None:
     native, spec = _native_and_own()
     x = native.x.copy()

@@ -96,10 +96,11 @@ def run(
         XU, RU = (np.asarray(v).T for v in chunk(x0, np.concatenate([p, [dt]])))
         X, R, us, ss, ok = XU[:, : 2 * n], RU, RU[:, n + a + 2], RU[:, n + a + 3], RU[:, -1]
     else:
-        # the chunk after this one, if it may run, starts on a second core meanwhile
-        guess = k + 2 * fns.chunk_steps <= steps
+        # the chunks after this one that may run (each ends by ``steps``) start on a
+        # second core meanwhile
+        ahead = (steps - k) // fns.chunk_steps - 1
         X, R = fns.run_chunk(
-            q, dq, 1.0, 1.0, np.zeros(n), p, dt, guess_next=guess, stop_error=opt.stop_error
+            q, dq, 1.0, 1.0, np.zeros(n), p, dt, ahead=ahead, stop_error=opt.stop_error
         )
         us = ss = ok = np.ones(len(R))
     ddq, tau, err, flag = R[:, :n], R[:, n : n + a], R[:, n + a], R[:, n + a + 1]

@@ -17,6 +17,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
+from mmplan.compile import threads
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout
 from mmplan.planners.extended_jacobian.prefetch import Speculation, speculation_of
 from mmplan.planners.extended_jacobian.step import CHUNK
@@ -187,17 +188,18 @@ class GeneratorFunctions:
 
     def run_chunk(
         self, q: Array, dq: Array, u: float, s: float, ext: Array, p: Array, dt: float,
-        guess_next: bool = False, stop_error: float = -np.inf,
+        ahead: int = 0, stop_error: float = -np.inf,
     ) -> tuple[Array, Array]:
         """``chunk_steps`` steps from (q, dq): states after each step (K, 2n) and the records
         (K, n + n_act + 2) = [ddq, tau, err, f] at each step's start
         (:mod:`~mmplan.planners.extended_jacobian.step`).
 
-        ``guess_next``: start the next chunk (from the last state, the same u, s, ext, p, dt)
+        ``ahead``: chunks that may run after this one; unless the guesses in flight go on
+        already, start them (the next from this one's last state, the same u, s, ext, p, dt)
         on a second core now (compiled only; :mod:`~mmplan.planners.extended_jacobian.
-        prefetch`): a later call with exactly that input takes its result. Not when a step's
-        task error is below ``stop_error`` (the run ends in this chunk: a guess would keep
-        the worker thread busy when the time scaling wants it)."""
+        prefetch`): a later call with exactly that input takes its result. Not after a chunk
+        in which a step's task error is below ``stop_error`` (the run ends in it: a guess
+        would keep the worker thread busy when the time scaling wants it)."""
         if self.chunk is None:
             raise RuntimeError("no chunk function")
         par = np.concatenate([p, [u, s], ext, [dt]])
@@ -207,8 +209,8 @@ class GeneratorFunctions:
             n, K, a = self.n, self.chunk_steps, self.n_act
             X = y[: 2 * n * K].reshape(K, 2 * n)
             R = y[2 * n * K : len(y) - n * n - 2 * a * K].reshape(K, -1)
-            if guess_next and not R[:, n + a].min() < stop_error:
-                self._guess_after(x, y)
+            if ahead > 0 and not R[:, n + a].min() < stop_error:
+                self._guess_after(x, y, ahead, stop_error)
             return X, R
         X, R = self.chunk(np.concatenate([q, dq]), par)
         return np.asarray(X).T, np.asarray(R).T
@@ -228,29 +230,50 @@ class GeneratorFunctions:
         a, K = self.n_act, self.chunk_steps
         return self._last[len(self._last) - 2 * a * K :].reshape(K, 2 * a)
 
-    def guess_chunk(self, q: Array, p: Array, dt: float) -> None:
-        """Start the compiled chunk a rollout from rest at q (u = s = 1, no push) begins with
-        on a second core now (:mod:`~mmplan.planners.extended_jacobian.prefetch`): the set-up
-        before the rollout's first chunk runs meanwhile, and the chunk takes the result."""
-        if self.native_chunk is None:
+    def guess_chunk(
+        self, q: Array, p: Array, dt: float, chunks: int = 1, stop_error: float = -np.inf
+    ) -> None:
+        """Start the compiled chunks a rollout from rest at q (u = s = 1, no push) begins
+        with on a second core now, at most ``chunks``, ending after one in which the task
+        error falls below ``stop_error`` (:mod:`~mmplan.planners.extended_jacobian.prefetch`):
+        the set-up before the rollout's first chunk runs meanwhile, and the rollout takes
+        the results."""
+        if self.native_chunk is None or chunks < 1:
             return
         n = self.n
         q, p = np.asarray(q, dtype=float), np.asarray(p, dtype=float)
         par = np.concatenate([p, [1.0, 1.0], np.zeros(n), [dt]])  # as run_chunk builds it
-        # replace: the previous plan's guess (the chunk after its last) is in flight
-        self._speculate().guess(np.concatenate([q, np.zeros(n), par]), replace=True)
+        # replace: the previous plan's guesses may be in flight
+        self._speculate().guess(np.concatenate([q, np.zeros(n), par]), replace=True,
+                                ahead=chunks - 1, stop=stop_error)  # fmt: skip
+
+    def settle_guesses(self) -> None:
+        """End the guessed chunks in flight (the rollout is over: the worker thread is the
+        time scaling's)."""
+        if self.native_chunk is not None:
+            self._speculate().settle()
 
     def _speculate(self) -> Speculation:
-        """The native chunk's calls (prefetch.py; kept on the compiled function)."""
-        return speculation_of(self.native_chunk)
+        """The native chunk's calls (prefetch.py; kept on the compiled function): each next
+        chunk starts from the last one's final state (the rows of ``run_chunk``'s output)."""
+        n, K, a = self.n, self.chunk_steps, self.n_act
+        follow = threads.Follow(
+            src=2 * n * (K - 1), dst=0, len=2 * n, err_at=2 * n * K + n + a, err_step=n + a + 2,
+            err_count=K,
+        )  # fmt: skip
+        return speculation_of(self.native_chunk, follow)
 
     def _native_call(self, x: Array) -> Array:
         self._last = y = self._speculate().call(x)
         return y
 
-    def _guess_after(self, x: Array, y: Array) -> None:
-        """Start the chunk after the one at x (output y) on a second core."""
+    def _guess_after(self, x: Array, y: Array, ahead: int, stop_error: float) -> None:
+        """Start the chunks after the one at x (output y) on a second core, at most
+        ``ahead``, unless the guesses in flight go on already."""
+        speculation = self._speculate()
+        if speculation.pending:
+            return
         m = 2 * self.n
         after = np.array(x)
         after[:m] = y[m * (self.chunk_steps - 1) : m * self.chunk_steps]  # last state
-        self._speculate().guess(after)
+        speculation.guess(after, ahead=ahead - 1, stop=stop_error)

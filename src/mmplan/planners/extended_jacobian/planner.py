@@ -102,15 +102,18 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         prep = self._prepare(problem, guess=True)
         robot = problem.robot
         run = rollout_time_scaled if prep.time_scaling else rollout
-        res = run(
-            prep.fns,
-            robot.pfaffian,
-            wheel_metric_inverse(robot),
-            prep.q0,
-            prep.params,
-            prep.options,
-            prep.switch,
-        )
+        try:
+            res = run(
+                prep.fns,
+                robot.pfaffian,
+                wheel_metric_inverse(robot),
+                prep.q0,
+                prep.params,
+                prep.options,
+                prep.switch,
+            )
+        finally:  # a rollout that raised leaves no guessed chunks running
+            prep.fns.settle_guesses()
         if not prep.time_scaling and prep.options.rates is not None:
             res = retime(res, prep.fns, prep.options)
         ee = prep.fns.ee_positions(res.q)
@@ -169,16 +172,27 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             raise InputError("goal", f"the {cls.method} planner needs {ReachPoint.goal_form}")
         q0 = ej_checks.check_start(robot, problem.start)
         p_f = np.asarray(task.position, dtype=float)
-        ej_checks.check_goal(robot, p_f)
-        obstacles = [
+        if p_f.shape != (3,) or not np.all(np.isfinite(p_f)):
+            ej_checks.check_goal(robot, p_f)  # its one-line error before anything reads p_f
+        terms = [
             ObstacleTerm(
                 ob.enlarged(settings.obstacle_margin).superellipsoid(),
                 ob.influence if ob.influence is not None else settings.influence,
             )
             for ob in problem.scene.obstacles
         ]
-        ej_checks.check_start_clearance(robot, problem.scene, obstacles, q0)
-        obstacles = ej_checks.fit_influence(obstacles, p_f)
+        done: list[bool] = []
+
+        def checks() -> None:
+            """The goal's height and the start's clearance (once): after the first chunk has
+            started (0.6-1.5 ms of a process's first plan off the rollout's path), or before
+            a build of the generator (an error then comes before the compile)."""
+            if not done:
+                done.append(True)
+                ej_checks.check_goal(robot, p_f)
+                ej_checks.check_start_clearance(robot, problem.scene, terms, q0)
+
+        obstacles = ej_checks.fit_influence(terms, p_f)
         floor = getattr(problem.scene, "ground", None)  # a duck-typed scene may have none
         ground = ej_checks.floor_term(robot, floor, settings.influence, q0, p_f)
         partition = choose_partition(robot, q0)
@@ -193,10 +207,17 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         time_scaling = (options.torque_control and mode == "time") or (
             options.rates is not None and not options.torque_control
         )
-        if time_scaling or options.rates is not None:  # the passes compile alongside the
-            topp_passes.prefetch()  # generator, or load while the first chunk computes
+        scaled = time_scaling or options.rates is not None
+        if scaled:  # loaded while a chunk computes, or compiled alongside the generator
             ej_prefetch.while_waiting(topp_passes.load_passes)
             ej_prefetch.while_waiting(topp_passes.load_peaks)
+
+        def before_build(message: str) -> None:
+            checks()
+            if scaled:
+                topp_passes.prefetch()
+            cg.notice(message)
+
         built = ej_cache.generator(
             robot,
             partition,
@@ -207,7 +228,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             settings.codegen,
             posture,
             heading,
-            notify=cg.notice,
+            notify=before_build,
         )
         fns, build_time = built.fns, built.build_time
         params = fns.layout.pack(
@@ -215,10 +236,17 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             partition if fns.layout.n_arm else None, heading,
         )  # fmt: skip
         if guess and (not options.torque_control or time_scaling):  # from rest, no feedback:
-            fns.guess_chunk(q0, params, options.dt)  # its first chunk starts meanwhile
-        ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
-        if options.torque_control:
-            ej_checks.check_gravity(robot, q0, fns)
+            # its first chunks start meanwhile (each ends by t_max, as the rollout's)
+            chunks = int(np.ceil(options.t_max / options.dt)) // fns.chunk_steps
+            fns.guess_chunk(q0, params, options.dt, chunks, options.stop_error)
+        try:
+            checks()
+            ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
+            if options.torque_control:
+                ej_checks.check_gravity(robot, q0, fns)
+        except BaseException:  # no plan: its guessed chunks would hold the worker thread
+            fns.settle_guesses()
+            raise
 
         def build(other: Partition) -> GeneratorFunctions:
             if fns.layout.supports(other):  # a value of p: the same (compiled) functions

@@ -128,6 +128,7 @@ def rollout(
         dq0: Start velocity (n,) (re-planning from a moving state); None: rest.
     """
     n, dt = fns.n, opt.dt
+    start_fns = fns
     p = np.array(p, dtype=float)
     p_f = p[:3]
     q, dq = np.array(q0, dtype=float), np.zeros(n) if dq0 is None else np.array(dq0, float)
@@ -222,6 +223,8 @@ def rollout(
             status = Status.DIVERGED
             message = divergence.message(t + dt, dq, ddq, opt.coordinates, None)
             break
+    for used in {id(start_fns): start_fns, id(fns): fns}.values():
+        used.settle_guesses()  # the worker thread is free for the time scaling
     info = {
         "max_cond_E": max_cond,
         "escapes": escapes,
