@@ -582,6 +582,10 @@ def _looked_up(lib: ctypes.CDLL, name: str) -> _Described:
     return cint, work, ins, out, getattr(lib, name), mem  # type: ignore[return-value]
 
 
+#: A generated function's C signature (arg, res, iw, w: addresses; mem).
+_SIGNATURE = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)
+
+
 class NativeFunction:
     """A compiled function called via ctypes: its inputs (dense) concatenated in ``x``, its
     first output's nonzeros in ``y`` (:meth:`dense` scatters them into the full matrix).
@@ -597,18 +601,23 @@ class NativeFunction:
         if described is None:  # a library built without mmplan_describe
             described = _looked_up(lib, name)
         cint, (n_arg, n_res, n_iw, n_w), ins, self.pattern, self._fn, self._mem = described
-        dbl = ctypes.POINTER(ctypes.c_double)
+        # the pointer and integer arrays as NumPy arrays, passed by address: a ctypes array
+        # type per length cost 20-60 us apiece in a process's first plan (eight functions)
         self.x, self.y = np.zeros(sum(p.nnz for p in ins)), np.zeros(self.pattern.nnz)
-        self._w, self._iw = np.zeros(n_w), (cint * n_iw)()
-        self._arg, self._res = (dbl * n_arg)(), (dbl * n_res)()
+        self._w = np.zeros(n_w)
+        self._iw = np.zeros(n_iw, dtype=np.int64 if ctypes.sizeof(cint) == 8 else np.int32)
+        self._arg, self._res = np.zeros(n_arg, dtype=np.uintp), np.zeros(n_res, dtype=np.uintp)
         at = 0
         for i, p in enumerate(ins):  # each input's part of x (dense inputs only)
             if p.rows is not None:
                 raise ValueError(f"{name}: input {i} is not dense")
-            self._arg[i] = ctypes.cast(self.x.ctypes.data + 8 * at, dbl)
+            self._arg[i] = self.x.ctypes.data + 8 * at
             at += p.nnz
-        self._res[0] = self.y.ctypes.data_as(dbl)
-        self._w_ptr = self._w.ctypes.data_as(dbl)
+        self._res[0] = self.y.ctypes.data
+        self._fn.argtypes = _SIGNATURE
+        self._fn.restype = ctypes.c_int
+        self._args = (self._arg.ctypes.data, self._res.ctypes.data, self._iw.ctypes.data,
+                      self._w.ctypes.data, self._mem)  # fmt: skip
         self._lib = lib
 
     def dense(self) -> NDArray[np.float64]:
@@ -622,10 +631,10 @@ class NativeFunction:
     def signature(self) -> tuple[Any, Any, Any, Any, Any, int]:
         """The ctypes function and its fixed arguments (arg, res, iw, w, mem): to call it from
         C, e.g. on a thread of its own (:mod:`mmplan.compile.threads`)."""
-        return self._fn, self._arg, self._res, self._iw, self._w_ptr, self._mem
+        return (self._fn, *self._args)
 
     def __call__(self) -> NDArray[np.float64]:
         """Evaluate at the current ``self.x``; returns ``self.y`` (overwritten by the next call)."""
-        if self._fn(self._arg, self._res, self._iw, self._w_ptr, self._mem):
+        if self._fn(*self._args):
             raise RuntimeError("compiled function failed")
         return self.y
