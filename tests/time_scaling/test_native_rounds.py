@@ -134,3 +134,30 @@ def test_paper_scenario_path(monkeypatch: pytest.MonkeyPatch) -> None:
     a, b = _both(monkeypatch, *args, **kwargs)
     _assert_same(a, b)
     assert a.rounds >= 3
+
+
+def test_rows_ratios_and_residuals_equal_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """RateModel.path_rows and ratios and the step residuals in C (native_rounds.py) against
+    their NumPy code, on a path with every kind of quantity and NaN, inf and zero entries."""
+    from mmplan.planners.extended_jacobian.time_scaling import step_residuals
+    from mmplan.time_scaling import native
+
+    assert native.kernels() is not None
+    rates = RateLimits(velocity={"q1": 0.5, "theta": 0.7}, acceleration={"q1": 0.3, "x": 2.0},
+                       platform_speed=0.8, platform_acceleration=0.4, platform_yaw_rate=0.4,
+                       platform_yaw_acceleration=0.9)  # fmt: skip
+    model = _model(rates)
+    _, q, qs, qss = _planar_path(50)
+    qs[3, 0], qs[4, 1], qss[5, 3] = np.nan, np.inf, -np.inf
+    qs[6] = 0.0
+    t = np.cumsum(np.full(50, 0.1))
+    t[7] = t[8]  # a zero step
+    compiled = (model.path_rows(qs, qss), model.ratios(qs, qss), step_residuals(t, q, qs))
+    monkeypatch.setattr(native, "loaded", lambda: None)
+    with np.errstate(all="ignore"):  # inf times a polygon side's zero sine
+        plain = (model.path_rows(qs, qss), model.ratios(qs, qss), step_residuals(t, q, qs))
+    for name in ("x_upper", "alpha", "beta", "g", "lo", "hi"):
+        np.testing.assert_array_equal(getattr(compiled[0], name), getattr(plain[0], name))
+    assert (compiled[0].labels, compiled[0].quantity) == (plain[0].labels, plain[0].quantity)
+    np.testing.assert_array_equal(compiled[1], plain[1])
+    np.testing.assert_array_equal(compiled[2], plain[2])

@@ -324,3 +324,9 @@ def kernels() -> Kernels | None:
     """The compiled passes (built at first use, then loaded from the disk cache); None
     without a compiler or when the build fails (the callers keep the CasADi VM)."""
     return codegen.load_source(SOURCE, PREFIX, FLAGS, Kernels, FALLBACK)
+
+
+def loaded() -> Kernels | None:
+    """The compiled passes when this process has loaded them already (never a build or a
+    load: callers with a NumPy path of their own, e.g. :meth:`.rates.RateModel.path_rows`)."""
+    return kernels() if kernels.cache_info().currsize else None

@@ -78,6 +78,62 @@ static int last_set(int R, const double *a, const double *g, const double *zone,
     return 1;
 }
 
+/* rates.RateModel.path_rows: the bound of x from the velocity quantities (limit2: their
+   limits squared; x_upper from inf, np.minimum in their order) and the acceleration rows
+   (a one-coordinate row copies q'' and q'; a side of the planar polygon is c a_i + s a_j). */
+void mmplan_path_rows(int N, int n, int nq, const int *kind, const int *j1, const int *j2,
+                      const double *limit2, int m, const int *row_i, const int *row_j,
+                      const double *row_c, const double *row_s, const double *dq,
+                      const double *ddq, double *x_upper, double *alpha, double *beta) {
+    for (int k = 0; k < N; k++) {
+        const double *v = dq + (long)k * n, *a = ddq + (long)k * n;
+        double up = INFINITY;
+        for (int i = 0; i < nq; i++) {
+            if (kind[i] != 0) continue;
+            double speed2 = v[j1[i]] * v[j1[i]];
+            if (j2[i] >= 0) speed2 = speed2 + v[j2[i]] * v[j2[i]];
+            up = np_min(up, speed2 > 0.0 ? limit2[i] / speed2 : INFINITY);
+        }
+        x_upper[k] = up;
+        for (int r = 0; r < m; r++) {
+            long at = (long)k * m + r;
+            if (row_j[r] < 0) {
+                alpha[at] = a[row_i[r]];
+                beta[at] = v[row_i[r]];
+            } else {
+                alpha[at] = row_c[r] * a[row_i[r]] + row_s[r] * a[row_j[r]];
+                beta[at] = row_c[r] * v[row_i[r]] + row_s[r] * v[row_j[r]];
+            }
+        }
+    }
+}
+
+/* rates.RateModel.ratios: value / limit of every quantity at every sample, (N, nq). */
+void mmplan_rate_ratios(int N, int n, int nq, const int *kind, const int *j1, const int *j2,
+                        const double *limit, const double *dq, const double *ddq, double *out) {
+    for (int k = 0; k < N; k++)
+        for (int i = 0; i < nq; i++) {
+            const double *m = (kind[i] == 0 ? dq : ddq) + (long)k * n;
+            double value = j2[i] < 0 ? fabs(m[j1[i]]) : hypot(m[j1[i]], m[j2[i]]);
+            out[(long)k * nq + i] = value / limit[i];
+        }
+}
+
+/* time_scaling.step_residuals: max over coordinates (NaN ignored, from 0) of the step's
+   |(q+ - q) / h - (dq + dq+) / 2|, (N - 1). */
+void mmplan_step_residuals(int N, int n, const double *t, const double *q, const double *dq,
+                           double *out) {
+    for (int k = 0; k + 1 < N; k++) {
+        double h = t[k + 1] - t[k], best = 0.0;
+        for (int j = 0; j < n; j++) {
+            long i = (long)k * n + j;
+            double r = fabs((q[i + n] - q[i]) / h - 0.5 * (dq[i + n] + dq[i]));
+            if (r > best) best = r;  /* np.nanmax: NaN ignored */
+        }
+        out[k] = best;
+    }
+}
+
 /* Returns 0, 1 without memory or when a pass failed, 2 when x is unbounded or x_upper < 0
    at some sample (the caller raises as topp._upper). out_int: rounds, feasible,
    first_empty (-1: none), peaks computed. */
@@ -277,6 +333,54 @@ class Rounds:
         self._fn.restype = ctypes.c_int
         i, d, p = ctypes.c_int, ctypes.c_double, ctypes.c_void_p
         self._fn.argtypes = [i, i, i, i, i, *[p] * 17, d, i, d, i, d, d, p, p, *[p] * 8]
+        self._rows = lib.mmplan_path_rows
+        self._rows.restype = None
+        self._rows.argtypes = [i, i, i, p, p, p, p, i, *[p] * 9]
+        self._ratios = lib.mmplan_rate_ratios
+        self._ratios.restype = None
+        self._ratios.argtypes = [i, i, i, *[p] * 7]
+        self._residuals = lib.mmplan_step_residuals
+        self._residuals.restype = None
+        self._residuals.argtypes = [i, i, p, p, p, p]
+
+    def path_rows(
+        self, dq_ds: Array, ddq_ds2: Array, columns: tuple[Array, Array, Array, Array],
+        rows: tuple[Array, Array, Array, Array],
+    ) -> tuple[Array, Array, Array]:
+        """x_upper (N,) and the acceleration rows' alpha, beta (N, m) of
+        :meth:`.rates.RateModel.path_rows` (``columns``: the quantities' kind, j1, j2 and
+        limit squared; ``rows``: each row's coordinates i, j (-1: a one-coordinate row) and
+        polygon cosine and sine)."""
+        v, a = _dense(dq_ds), _dense(ddq_ds2)
+        N, n = v.shape
+        kind, j1, j2 = (_dense(c, np.intc) for c in columns[:3])
+        limit2 = _dense(columns[3])
+        ri, rj = (_dense(c, np.intc) for c in rows[:2])
+        rc, rs = _dense(rows[2]), _dense(rows[3])
+        m = len(ri)
+        x_upper, alpha, beta = np.empty(N), np.empty((N, m)), np.empty((N, m))
+        arrays = (ri, rj, rc, rs, v, a, x_upper, alpha, beta)
+        self._rows(N, n, len(kind), *[x.ctypes.data for x in (kind, j1, j2, limit2)], m,
+                   *[x.ctypes.data for x in arrays])  # fmt: skip
+        return x_upper, alpha, beta
+
+    def ratios(self, dq: Array, ddq: Array, columns: tuple[Array, Array, Array, Array]) -> Array:
+        """:meth:`.rates.RateModel.ratios` (``columns``: kind, j1, j2, limit)."""
+        v, a = _dense(dq), _dense(ddq)
+        N, n = v.shape
+        kind, j1, j2 = (_dense(c, np.intc) for c in columns[:3])
+        limit = _dense(columns[3])
+        out = np.empty((N, len(limit)))
+        self._ratios(N, n, len(limit), *[x.ctypes.data for x in (kind, j1, j2, limit, v, a, out)])
+        return out
+
+    def step_residuals(self, t: Array, q: Array, dq: Array) -> Array:
+        """:func:`mmplan.planners.extended_jacobian.time_scaling.step_residuals`."""
+        t, q, dq = _dense(t), _dense(q), _dense(dq)
+        N, n = q.shape
+        out = np.empty(max(N - 1, 0))
+        self._residuals(N, n, *[x.ctypes.data for x in (t, q, dq, out)])
+        return out
 
     def __call__(
         self, path: tuple[Array, Array, Array, Array], fixed: tuple[Array, Array],

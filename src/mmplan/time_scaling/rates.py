@@ -45,7 +45,7 @@ from mmplan import interpolant
 from mmplan.arrays import Array
 from mmplan.robot.limits import RateLimits
 from mmplan.robot.tree import JointKind
-from mmplan.time_scaling import native_peaks
+from mmplan.time_scaling import native, native_peaks
 
 if TYPE_CHECKING:
     from mmplan.robot.robot import Robot
@@ -203,43 +203,75 @@ class RateModel:
 
     def path_rows(self, dq_ds: Array, ddq_ds2: Array) -> PathRates:
         """Time-scaling constraints along a path with q' = ``dq_ds`` and q'' = ``ddq_ds2``
-        (N, n) (module docstring)."""
+        (N, n) (module docstring); one C loop when the time scaling's passes are loaded
+        (:mod:`.native_rounds`, the same numbers as the NumPy code here)."""
+        labels, owner, ri, rj, rc, rs, bound = self._rows
+        hi = np.array(bound, dtype=float)
+        compiled = native.loaded()
+        if compiled is not None and np.ndim(dq_ds) == 2:
+            kind, j1, j2, _ = self.peak_columns
+            x_upper, a, b = compiled.rounds.path_rows(
+                dq_ds, ddq_ds2, (kind, j1, j2, self._limits_squared), (ri, rj, rc, rs))
+            return PathRates(x_upper, a, b, np.zeros((len(x_upper), len(hi))), -hi, hi, labels,
+                             owner)  # fmt: skip
         N = len(dq_ds)
         x_upper = np.full(N, np.inf)
-        alpha, beta, bound, labels, owner = [], [], [], [], []
-        for iq, q in enumerate(self.quantities):
+        for q in self.quantities:
             if q.kind == "velocity":
                 speed2 = np.sum(np.square(dq_ds[:, list(q.index)]), axis=1)
                 with np.errstate(divide="ignore"):
                     cap = np.where(speed2 > 0.0, q.limit**2 / speed2, np.inf)
                 x_upper = np.minimum(x_upper, cap)
-            elif len(q.index) == 1:
-                alpha.append(ddq_ds2[:, q.index[0]])
-                beta.append(dq_ds[:, q.index[0]])
-                bound.append(q.limit)
+        alpha, beta = [], []
+        for i, j, c, s in zip(ri, rj, rc, rs, strict=True):
+            one = j < 0  # a coordinate's row; else a side of the planar polygon
+            alpha.append(ddq_ds2[:, i] if one else c * ddq_ds2[:, i] + s * ddq_ds2[:, j])
+            beta.append(dq_ds[:, i] if one else c * dq_ds[:, i] + s * dq_ds[:, j])
+        a = np.column_stack(alpha) if alpha else np.zeros((N, 0))
+        b = np.column_stack(beta) if beta else np.zeros((N, 0))
+        return PathRates(x_upper, a, b, np.zeros((N, len(hi))), -hi, hi, labels, owner)
+
+    @cached_property
+    def _rows(self) -> tuple[tuple[str, ...], tuple[int, ...], Array, Array, Array, Array,
+                             tuple[float, ...]]:  # fmt: skip
+        """The acceleration rows of :meth:`path_rows`: labels, quantities, coordinates i and j
+        (-1: a coordinate's own row), the polygon side's cosine and sine, bound."""
+        labels, owner, ri, rj, rc, rs, bound = [], [], [], [], [], [], []
+        for iq, q in enumerate(self.quantities):
+            if q.kind == "velocity":
+                continue
+            if len(q.index) == 1:
                 labels.append(q.label)
                 owner.append(iq)
-            else:
-                i, j = q.index
-                for k in range(POLYGON_SIDES // 2):
-                    c, s = math.cos(2 * math.pi * k / POLYGON_SIDES), math.sin(
-                        2 * math.pi * k / POLYGON_SIDES
-                    )
-                    alpha.append(c * ddq_ds2[:, i] + s * ddq_ds2[:, j])
-                    beta.append(c * dq_ds[:, i] + s * dq_ds[:, j])
-                    bound.append(q.limit * math.cos(math.pi / POLYGON_SIDES))
-                    labels.append(f"{q.label} (side {k + 1})")
-                    owner.append(iq)
-        m = len(bound)
-        a = np.column_stack(alpha) if m else np.zeros((N, 0))
-        b = np.column_stack(beta) if m else np.zeros((N, 0))
-        hi = np.asarray(bound, dtype=float)
-        return PathRates(x_upper, a, b, np.zeros((N, m)), -hi, hi, tuple(labels), tuple(owner))
+                ri.append(q.index[0])
+                rj.append(-1)
+                rc.append(1.0)
+                rs.append(0.0)
+                bound.append(q.limit)
+                continue
+            for k in range(POLYGON_SIDES // 2):
+                labels.append(f"{q.label} (side {k + 1})")
+                owner.append(iq)
+                ri.append(q.index[0])
+                rj.append(q.index[1])
+                rc.append(math.cos(2 * math.pi * k / POLYGON_SIDES))
+                rs.append(math.sin(2 * math.pi * k / POLYGON_SIDES))
+                bound.append(q.limit * math.cos(math.pi / POLYGON_SIDES))
+        return (tuple(labels), tuple(owner), np.array(ri), np.array(rj), np.array(rc, dtype=float),
+                np.array(rs, dtype=float), tuple(bound))  # fmt: skip
+
+    @cached_property
+    def _limits_squared(self) -> Array:
+        """Each quantity's limit squared (as ``limit**2`` in :meth:`path_rows`)."""
+        return np.array([qt.limit**2 for qt in self.quantities], dtype=float)
 
     def ratios(self, dq: Array, ddq: Array) -> Array:
         """value / limit of every quantity at every sample, (N, len(quantities))."""
         if not self.quantities:
             return np.zeros((len(dq), 0))
+        compiled = native.loaded()
+        if compiled is not None and np.ndim(dq) == 2 and np.shape(dq) == np.shape(ddq):
+            return compiled.rounds.ratios(dq, ddq, self.peak_columns)
         with np.errstate(divide="ignore", invalid="ignore"):  # a zero limit: inf or NaN
             return np.column_stack([q.values(dq, ddq) / q.limit for q in self.quantities])
 

@@ -41,6 +41,7 @@ from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
 from mmplan.planners.extended_jacobian.switching import PartitionSwitch
+from mmplan.time_scaling import native
 from mmplan.time_scaling.retime import Retimed, retime_path
 from mmplan.trajectory import Status
 
@@ -92,6 +93,9 @@ MAX_CONSISTENCY_ROUNDS = 8
 def step_residuals(t: Array, q: Array, dq: Array) -> Array:
     r"""Trapezoid residual of every step, :math:`\|(q_{k+1} - q_k)/h_k - (\dot q_k +
     \dot q_{k+1})/2\|_\infty` (N - 1,): how far the samples miss the motion they sample."""
+    compiled = native.loaded()
+    if compiled is not None and np.ndim(q) == 2:  # one C loop, the same numbers
+        return compiled.rounds.step_residuals(t, q, dq)
     h = np.diff(t)[:, None]
     with np.errstate(invalid="ignore", divide="ignore"):
         r = np.abs(np.diff(q, axis=0) / h - 0.5 * (dq[1:] + dq[:-1]))
