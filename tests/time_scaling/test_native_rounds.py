@@ -161,3 +161,29 @@ def test_rows_ratios_and_residuals_equal_numpy(monkeypatch: pytest.MonkeyPatch) 
     assert (compiled[0].labels, compiled[0].quantity) == (plain[0].labels, plain[0].quantity)
     np.testing.assert_array_equal(compiled[1], plain[1])
     np.testing.assert_array_equal(compiled[2], plain[2])
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_random_paths_equal_the_numpy_loop(monkeypatch: pytest.MonkeyPatch, seed: int) -> None:
+    """Random sine paths, limits, effort rows and starts (1-12 rounds; a later round's
+    forward pass runs only from the first changed sample until x meets the last round's)."""
+    rng = np.random.default_rng(seed)
+    N = int(rng.integers(5, 300))
+    s = np.sort(rng.uniform(0.0, 10.0, N))
+    s[0] = 0.0
+    freq, amp = rng.uniform(0.2, 2.0, 4), rng.uniform(0.3, 3.0, 4)
+    q = np.column_stack([a * np.sin(f * s) for a, f in zip(amp, freq, strict=True)])
+    qs = np.column_stack([a * f * np.cos(f * s) for a, f in zip(amp, freq, strict=True)])
+    qss = np.column_stack([-a * f * f * np.sin(f * s) for a, f in zip(amp, freq, strict=True)])
+    rates = RateLimits(velocity={"q1": rng.uniform(0.3, 2.0)},
+                       acceleration={"q1": rng.uniform(0.1, 2.0), "theta": rng.uniform(0.1, 2.0)},
+                       platform_speed=rng.uniform(0.3, 2.0),
+                       platform_acceleration=rng.uniform(0.1, 2.0))  # fmt: skip
+    rows = None
+    if seed % 2:
+        rows = (rng.normal(0.0, 1.0, (N, 2)), rng.normal(0.0, 1.0, (N, 2)),
+                rng.normal(0.0, 0.1, (N, 2)), np.array([-2.0, -3.0]),
+                np.array([2.0, 3.0]))  # fmt: skip
+    start = None if seed % 3 == 0 else 0.0
+    a, b = _both(monkeypatch, s, q, qs, qss, _model(rates), rows, w_max=5.0, x_start=start)
+    _assert_same(a, b)

@@ -228,24 +228,32 @@ int mmplan_topp_backward(int n, int top, const double *alpha, const double *beta
     return 0;
 }
 
+/* x_{i+1} of the greedy pass from x = x_i (s: room for the interval's 2 n slabs) */
+static double forward_step(int n, int i, const double *alpha, const double *beta,
+                           const double *g, const double *sigma, const double *x_upper,
+                           const double *zone, const double *K_lo, const double *K_hi,
+                           double x, slab *s) {
+    int m = 2 * n;
+    double delta = interval(n, i, alpha, beta, g, sigma, zone, s);
+    double v_hi = (K_hi[i + 1] - x) / delta, v_lo = (K_lo[i + 1] - x) / delta;
+    for (int k = 0; k < m; k++) {
+        int use = s[k].b > 1e-14;
+        double ax = s[k].a * x;
+        v_hi = mn(v_hi, sel(use, (s[k].hi - ax) / s[k].b, BIG));
+        v_lo = mx(v_lo, sel(use, (s[k].lo - ax) / s[k].b, -BIG));
+    }
+    double x_next = mn(mx(x + mx(v_hi, v_lo) * delta, K_lo[i + 1]), K_hi[i + 1]);
+    return mn(mx(x_next, 0.0), x_upper[i + 1]);
+}
+
 int mmplan_topp_forward(int n, int N, const double *alpha, const double *beta,
                         const double *g, const double *sigma, const double *x_upper,
                         const double *zone, const double *K_lo, const double *K_hi,
                         double x, double *out_x) {
-    int m = 2 * n;
-    slab *s = malloc(sizeof(slab) * (size_t)(m > 0 ? m : 1));
+    slab *s = malloc(sizeof(slab) * (size_t)(n > 0 ? 2 * n : 1));
     if (!s) return 1;
     for (int i = 0; i + 1 < N; i++) {
-        double delta = interval(n, i, alpha, beta, g, sigma, zone, s);
-        double v_hi = (K_hi[i + 1] - x) / delta, v_lo = (K_lo[i + 1] - x) / delta;
-        for (int k = 0; k < m; k++) {
-            int use = s[k].b > 1e-14;
-            double ax = s[k].a * x;
-            v_hi = mn(v_hi, sel(use, (s[k].hi - ax) / s[k].b, BIG));
-            v_lo = mx(v_lo, sel(use, (s[k].lo - ax) / s[k].b, -BIG));
-        }
-        double x_next = mn(mx(x + mx(v_hi, v_lo) * delta, K_lo[i + 1]), K_hi[i + 1]);
-        x = mn(mx(x_next, 0.0), x_upper[i + 1]);
+        x = forward_step(n, i, alpha, beta, g, sigma, x_upper, zone, K_lo, K_hi, x, s);
         out_x[i] = x;
     }
     free(s);

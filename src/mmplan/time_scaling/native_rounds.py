@@ -151,15 +151,18 @@ int mmplan_retime_rounds(
     peaks_fn peaks_of = (peaks_fn)peaks_address;
     int R = e + r;
     long NR = (long)N * R, Nr = (long)N * r, P = (long)(N - 1) * nq;
-    double *work = malloc(sizeof(double) * (size_t)(2 * NR + 2 * Nr + 11 * (long)N + 2 * R
+    double *work = malloc(sizeof(double) * (size_t)(2 * NR + 2 * Nr + 14 * (long)N + 2 * R
                                                      + P + 1));
-    if (!work) return 1;
+    slab *slabs = malloc(sizeof(slab) * (size_t)(R > 0 ? 2 * R : 1));
+    if (!work || !slabs) { free(work); free(slabs); return 1; }
     double *alpha = work, *beta = alpha + NR, *tight = beta + NR, *before_tight = tight + Nr;
     double *x_up = before_tight + Nr, *x_cap = x_up + N, *before_cap = x_cap + N;
     double *K_lo = before_cap + N, *K_hi = K_lo + N, *set_lo = K_hi + N, *set_hi = set_lo + N;
     double *empty = set_hi + N, *share = empty + N, *w = share + N, *v_at = w + N;
-    double *zone = v_at + N, *previous = zone + 2 * R;
+    double *zone = v_at + N, *previous = zone + 2 * R, *old_x = previous + P + 1;
+    double *old_lo = old_x + N, *old_hi = old_lo + N;
     int status = 0, rounds = 0, reuse = -1, have_previous = 0, feasible = 0, first_empty = -1;
+    int rows_first = 0, rows_last = N - 1;  /* samples whose rows the last tightening changed */
     int with_peaks = 0;
     double ratio = 0.0, w2 = pow(w_max, 2.0);
     for (long k = 0; k < Nr; k++) tight[k] = 1.0;
@@ -184,6 +187,13 @@ int mmplan_retime_rounds(
             if (!(isfinite(x_up[k]) && x_up[k] >= 0.0)) { status = 2; goto done; }
         }
         /* topp.scaling_with_sets */
+        int later = rounds > 1;  /* the round before was feasible (else the loop ended) */
+        if (later)
+            for (int k = 0; k < N; k++) {
+                old_x[k] = x[k];
+                old_lo[k] = K_lo[k];
+                old_hi[k] = K_hi[k];
+            }
         int top = N - 2, have_last;
         double last_lo = 0.0, last_hi = 0.0;
         first_empty = N - 1;
@@ -215,13 +225,33 @@ int mmplan_retime_rounds(
         double x0 = given_start ? x_start : K_hi[0];
         feasible = first_empty < 0 && K_lo[0] <= x0 + 1e-12
                    && x0 <= K_hi[0] + TOL * (1.0 + fabs(K_hi[0]));
-        for (int k = 0; k < N; k++) { x[k] = 0.0; v[k] = 0.0; }
+        /* the forward pass; in a later round only from the first sample whose rows or
+           controllable set changed (x before it is the same: x_{i+1} depends on x_i, the rows
+           of i and i + 1 and K and x_upper of i + 1) until x meets the last round's again
+           past the last change (then the rest is the same too) */
+        int from = 0, settled = N;
+        if (later) {
+            int first = rows_first, last = rows_last;
+            for (int k = 0; k < N; k++)
+                if (K_lo[k] != old_lo[k] || K_hi[k] != old_hi[k]) {
+                    if (k < first) first = k;
+                    if (k > last) last = k;
+                }
+            from = first > 0 ? first - 1 : 0;
+            settled = last;
+        }
+        for (int k = from + 1; k < N; k++) x[k] = 0.0;
+        for (int k = 0; k < N; k++) v[k] = 0.0;
+        if (!feasible) for (int k = 0; k <= from; k++) x[k] = 0.0;
         if (feasible) {
-            x[0] = x0;
-            if (mmplan_topp_forward(R, N, alpha, beta, g_all, sigma, x_up, zone, K_lo, K_hi, x0,
-                                    x + 1)) {
-                status = 1;
-                goto done;
+            if (from == 0) x[0] = x0;
+            for (int i = from; i + 1 < N; i++) {
+                x[i + 1] = forward_step(R, i, alpha, beta, g_all, sigma, x_up, zone, K_lo, K_hi,
+                                        x[i], slabs);
+                if (later && i + 1 > settled && x[i + 1] == old_x[i + 1]) {
+                    for (int k = i + 2; k < N; k++) x[k] = old_x[k];
+                    break;
+                }
             }
             for (int k = 0; k + 1 < N; k++) v[k] = (x[k + 1] - x[k]) / (sigma[k + 1] - sigma[k]);
         }
@@ -286,17 +316,24 @@ int mmplan_retime_rounds(
             }
         for (long k = 0; k < P; k++) previous[k] = peaks[k];
         have_previous = 1;
-        int last_changed = N - 1;
-        for (int k = N - 1; k >= 0; k--) {
+        int last_changed = -1, first_changed = N;
+        for (int k = 0; k < N; k++) {
             int changed = x_cap[k] != before_cap[k];
             for (int c = 0; c < r && !changed; c++)
                 changed = tight[(long)k * r + c] != before_tight[(long)k * r + c];
-            if (changed) { last_changed = k; break; }
+            if (changed) {
+                if (k < first_changed) first_changed = k;
+                last_changed = k;
+            }
         }
+        rows_first = first_changed;
+        rows_last = last_changed;
+        if (last_changed < 0) last_changed = N - 1;
         reuse = first_empty < 0 ? last_changed : -1;
     }
 done:
     free(work);
+    free(slabs);
     out_int[0] = rounds;
     out_int[1] = feasible;
     out_int[2] = first_empty;
