@@ -308,3 +308,19 @@ def test_a_speculation_that_follows_takes_every_chained_call(cache: Path) -> Non
     assert spec.pending
     np.testing.assert_array_equal(spec.call(np.array([9.0, 1.0])), [10.0, 1.0, 0.0])
     assert (spec.hits, spec.misses) == (6, 1) and not spec.pending
+
+
+def test_call_rows_equals_a_call_per_row(cache: Path) -> None:
+    """threads.call_rows: one C loop over the rows, the same bits as a call per row; the
+    function's own buffers are its calls' again afterwards; False without the helper."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    native = _native()
+    rows = np.random.default_rng(4).normal(size=(9, 4))
+    assert not threads.call_rows(native.signature(), rows, np.empty((9, 3)))  # not on disk
+    assert threads.library() is not None
+    out = np.full((9, 3), np.nan)
+    assert threads.call_rows(native.signature(), rows, out)
+    for k in range(9):
+        native.x[:] = rows[k]
+        np.testing.assert_array_equal(native().copy(), out[k])

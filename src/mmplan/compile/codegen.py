@@ -604,6 +604,8 @@ class NativeFunction:
         # the pointer and integer arrays as NumPy arrays, passed by address: a ctypes array
         # type per length cost 20-60 us apiece in a process's first plan (eight functions)
         self.x, self.y = np.zeros(sum(p.nnz for p in ins)), np.zeros(self.pattern.nnz)
+        #: Inputs of the function (all dense, concatenated in ``x``).
+        self.inputs = len(ins)
         self._w = np.zeros(n_w)
         self._iw = np.zeros(n_iw, dtype=np.int64 if ctypes.sizeof(cint) == 8 else np.int32)
         self._arg, self._res = np.zeros(n_arg, dtype=np.uintp), np.zeros(n_res, dtype=np.uintp)

@@ -104,6 +104,10 @@ class _Library:
         lib.mmplan_chain_slot.argtypes = [vp, i]
         lib.mmplan_chain_free.argtypes = [vp]
         lib.mmplan_chain_free.restype = None
+        lib.mmplan_call_rows.argtypes = [vp, vp, vp, vp, vp, i, vp, i, vp, i, i]
+        #: ``mmplan_call_rows``: a generated function at many points in one call
+        #: (:func:`call_rows`).
+        self.call_rows = lib.mmplan_call_rows
         #: Address of ``void mmplan_pair(void (*task)(void *), void *a, void *b)`` for other
         #: libraries' C (task(a) here, task(b) on the worker).
         self.pair = ctypes.cast(lib.mmplan_pair, ctypes.c_void_p).value
@@ -194,6 +198,24 @@ class Job:
             self.close()
 
 
+def call_rows(signature: tuple[Any, ...], inputs: Any, out: Any) -> bool:
+    """A generated function of one dense input and a dense output (``signature``: the
+    function and its arg, res, iw, w, mem, as :class:`Job`'s) at each row of ``inputs``
+    (count, nx) into the rows of ``out`` (count, ny), both C-contiguous float64, in one C
+    loop; False when the helper is not on disk (nothing computed; never built here).
+    Raises RuntimeError when a call fails."""
+    lib = library() if ready() else None
+    if lib is None:
+        return False
+    function, arg, res, iw, w, mem = signature
+    address = ctypes.cast(function, ctypes.c_void_p).value
+    code = lib.call_rows(address, arg, res, iw, w, mem, inputs.ctypes.data, inputs.shape[1],
+                         out.ctypes.data, out.shape[1], len(inputs))  # fmt: skip
+    if code:
+        raise RuntimeError("compiled function failed")
+    return True
+
+
 @dataclass(frozen=True)
 class Follow:
     """How a :class:`Chain`'s next input follows from its last call: x_{i+1} is x_i with
@@ -282,4 +304,4 @@ class Chain:
 
 
 __all__ = ["CHAIN_DEPTH", "FLAGS", "PREFIX", "SOURCE", "SPIN_S", "Chain", "Follow", "Job",
-           "cores", "idle_core", "library", "prefetch", "ready"]
+           "call_rows", "cores", "idle_core", "library", "prefetch", "ready"]

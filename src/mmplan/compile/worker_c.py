@@ -341,6 +341,26 @@ int mmplan_chain_slot(mmplan_chain *c, int i) {
     }
 }
 
+/* A generated function of one dense input and a dense first output at count points, here:
+   row k of ``in`` (nx values) in, row k of ``out`` (ny values) out; the first failed call's
+   code, else 0. */
+int mmplan_call_rows(void *f, void *arg, void *res, void *iw, void *w, int mem,
+                     const double *in, int nx, double *out, int ny, int count) {
+    const double **a = (const double **)arg;
+    double **r = (double **)res;
+    const double *arg0 = a[0];
+    double *res0 = r[0];
+    int ret = 0;
+    for (int k = 0; k < count && !ret; k++) {
+        a[0] = in + (long)k * nx;
+        r[0] = out + (long)k * ny;
+        ret = ((mmplan_fn)f)(a, r, iw, w, mem);
+    }
+    a[0] = arg0;
+    r[0] = res0;
+    return ret;
+}
+
 void mmplan_chain_free(mmplan_chain *c) {
     if (!c) return;
     mmplan_chain_stop(c);

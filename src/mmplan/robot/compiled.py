@@ -30,7 +30,7 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
-from mmplan.compile import codegen
+from mmplan.compile import codegen, threads
 from mmplan.compile.fingerprint import robot_fingerprint, source_fingerprint
 
 #: The functions of the library (names of :attr:`Robot.functions`).
@@ -134,6 +134,10 @@ class Natives:
             if inputs.shape[1:] != x.shape:
                 raise ValueError(f"{name}: {inputs.shape[1:]} input values for {len(x)}")
             out = np.empty((N, pattern.shape[0] * pattern.shape[1]))
+            if fn.inputs == 1 and pattern.rows is None and N:  # one C loop over the points
+                rows = np.ascontiguousarray(inputs, dtype=np.float64)
+                if threads.call_rows(fn.signature(), rows, out):
+                    return out
             for k in range(N):
                 x[:] = inputs[k]
                 fn()
