@@ -137,7 +137,6 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
             LazyFunction(functools.partial(_external, f"mmplan_ej_{x}", library)) for x in NAMES
         )
         native = cg.NativeFunction(library, "mmplan_ej_chunk_flat")
-        native_ee = cg.NativeFunction(library, "mmplan_ej_ee_flat")
         if not all(native.has(f"mmplan_ej_{x}") for x in NAMES):
             return None  # loaded lazily: a library without one of them is built again now
     except (OSError, ValueError, KeyError, TypeError, RuntimeError, AttributeError):
@@ -156,6 +155,6 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
     return GeneratorFunctions(
         None, LazyFunction(terms), E, int(meta["n"]), int(meta["n_act"]), True, terms_flat,
         step_flat, effort, chunk, record=record, native_chunk=native, layout=layout, key=key,
-        native_ee=native_ee, library=library,
+        library=library,
         cache={"symbolic": built},
     )  # fmt: skip

@@ -88,7 +88,6 @@ class GeneratorFunctions:
     #: The fused step (x, par) -> (x_next, rec) of step.py.
     record: ca.Function | LazyFunction | None = None
     native_chunk: Any = None  # cg.NativeFunction of chunk_flat (step.build_chunk_flat)
-    native_ee: Any = None  # cg.NativeFunction of ee_flat (step.build_ee_flat)
     _last: Array | None = None
     cache: dict[str, Any] = field(default_factory=dict)  # functions built later (torque.feedback)
     #: Where goal, gains, floor, obstacle slots and partition lie in p (parameters.py).
@@ -152,7 +151,7 @@ class GeneratorFunctions:
         """End-effector positions at the states Q (N, n) -> (N, 3) by the compiled ``ee_flat``
         (``chunk_steps`` states a call, the last block padded with its last state); None when
         not compiled (the caller maps the robot's ``ee_position``)."""
-        native = self.native_ee
+        native = self._native("ee_flat")
         if native is None:
             return None
         Q = np.asarray(Q, dtype=float)
@@ -246,6 +245,12 @@ class GeneratorFunctions:
         # replace: the previous plan's guesses may be in flight
         self._speculate().guess(np.concatenate([q, np.zeros(n), par]), replace=True,
                                 ahead=chunks - 1, stop=stop_error)  # fmt: skip
+
+    def warm_up(self) -> None:
+        """Load the compiled functions a plan needs after its rollout (``ee_flat``; a task
+        for the rollout's idle waits, :func:`~mmplan.planners.extended_jacobian.prefetch.
+        while_waiting`)."""
+        self._native("ee_flat")
 
     def settle_guesses(self) -> None:
         """End the guessed chunks in flight (the rollout is over: the worker thread is the

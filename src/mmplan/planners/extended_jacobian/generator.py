@@ -282,7 +282,7 @@ def build_functions(
                 None, terms, E_c, n, n_act, True, terms_flat, step_flat, effort, chunk,
                 record=record, native_chunk=cg.NativeFunction(built, "mmplan_ej_chunk_flat"),
                 layout=layout, key=disk_key or "", cache=later,
-                native_ee=cg.NativeFunction(built, "mmplan_ej_ee_flat"), library=built,
+                library=built,
             )  # fmt: skip
             if disk_key is not None:
                 ej_compiled.save(disk_key, fns, built)

@@ -239,6 +239,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             # its first chunks start meanwhile (each ends by t_max, as the rollout's)
             chunks = int(np.ceil(options.t_max / options.dt)) // fns.chunk_steps
             fns.guess_chunk(q0, params, options.dt, chunks, options.stop_error)
+            ej_prefetch.while_waiting(fns.warm_up)
         try:
             checks()
             ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
