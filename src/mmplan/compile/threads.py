@@ -25,6 +25,11 @@ variable; its spinning is not counted as the machine's load (:func:`idle_core`).
 scaling's backward pass splits its work with the same worker (``mmplan_pair``,
 :attr:`_Library.pair`): with a thread of its own it had to share the two CPUs with the
 spinning worker (measured: 2.7-3.9 ms a plan instead of 1.5).
+
+A :class:`Chain` is a run of calls on the worker, each next input made in C from the last
+output (the rollout's chunks, each starting where the last one ended: the worker never waits
+for the caller between two of them; :mod:`mmplan.planners.extended_jacobian.prefetch`).
+:func:`call_rows` calls a generated function at many points in one C loop (no thread).
 """
 
 from __future__ import annotations
