@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import replace
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -107,12 +108,19 @@ def _maps(robot: Robot, K: int) -> tuple[ca.Function, ca.Function | None]:
     return robot.functions["ee_position"].map(K), points
 
 
+@lru_cache(maxsize=16)
 def spread(count: int, dim: int) -> Array:
     """``count`` fixed points spread evenly over the unit cube of ``dim`` dimensions (count,
     dim): the additive recurrence of the generalised golden ratio (a low-discrepancy
     sequence, Roberts 2018), u_k = frac(1/2 + k (1/phi, 1/phi^2, ...)) with phi^(dim+1) =
     phi + 1. The same points every call, without a random generator (importing NumPy's
-    costs about 8 ms a process)."""
+    costs about 8 ms a process); kept per (count, dim), read-only."""
+    points = _spread(count, dim)
+    points.flags.writeable = False
+    return points
+
+
+def _spread(count: int, dim: int) -> Array:
     if dim == 0:
         return np.zeros((count, 0))
     phi = 2.0
