@@ -324,3 +324,30 @@ def test_call_rows_equals_a_call_per_row(cache: Path) -> None:
     for k in range(9):
         native.x[:] = rows[k]
         np.testing.assert_array_equal(native().copy(), out[k])
+
+
+def test_a_job_keeps_the_function_buffers_and_a_closed_chain_does_not_start(
+    cache: Path,
+) -> None:
+    """A Job made from a NativeFunction's signature keeps its argument and work buffers
+    alive after the function is gone (found by review: the addresses owned nothing); a
+    closed chain raises instead of passing NULL to C."""
+    if cg.compiler() is None:
+        pytest.fail("no C compiler on this machine")
+    import gc
+    import weakref
+
+    assert threads.library() is not None
+    native = _native()
+    buffers = [weakref.ref(a) for a in (native._arg, native._res, native._iw, native._w)]
+    job = threads.Job(*native.signature())
+    del native
+    gc.collect()
+    assert all(ref() is not None for ref in buffers)
+    del job
+    gc.collect()
+    assert all(ref() is None for ref in buffers)
+    chain, _, _ = _chain(_stepper())
+    chain.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        chain.start(2, -np.inf)

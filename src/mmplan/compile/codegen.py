@@ -582,6 +582,14 @@ def _looked_up(lib: ctypes.CDLL, name: str) -> _Described:
     return cint, work, ins, out, getattr(lib, name), mem  # type: ignore[return-value]
 
 
+def _address(array: NDArray[Any]) -> ctypes.c_void_p:
+    """The address of ``array``'s data as a ctypes object that keeps ``array`` alive (a
+    :class:`mmplan.compile.threads.Job` holding it keeps the buffer)."""
+    pointer = ctypes.c_void_p(array.ctypes.data)
+    pointer._mmplan_owner = array  # type: ignore[attr-defined]
+    return pointer
+
+
 class NativeFunction:
     """A compiled function called via ctypes: its inputs (dense) concatenated in ``x``, its
     first output's nonzeros in ``y`` (:meth:`dense` scatters them into the full matrix).
@@ -614,9 +622,7 @@ class NativeFunction:
         self._res[0] = self.y.ctypes.data
         # ctypes objects made once: a call passes them as they are (0.76 us a call against
         # 0.98 us for addresses converted by declared argument types, measured)
-        vp = ctypes.c_void_p
-        self._args = (vp(self._arg.ctypes.data), vp(self._res.ctypes.data),
-                      vp(self._iw.ctypes.data), vp(self._w.ctypes.data),
+        self._args = (*(_address(a) for a in (self._arg, self._res, self._iw, self._w)),
                       ctypes.c_int(self._mem))  # fmt: skip
         self._lib = lib
 

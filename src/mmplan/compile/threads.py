@@ -274,6 +274,8 @@ class Chain:
     def start(self, limit: int, stop: float) -> bool:
         """Calls from X[0] (at most ``limit``; ``stop``: :class:`Follow`), after ending a
         chain in flight; False when the worker was busy: slot 0 alone was computed here."""
+        if not self._job:
+            raise RuntimeError("the chain is closed")
         self.running = True
         return bool(self._lib.chain_start(self._job, limit, stop))
 

@@ -270,7 +270,7 @@ int mmplan_retime_rounds(
                 dq[i] = w[k] * dq_ds[i];
                 ddq[i] = x[k] * ddq_ds2[i] + 0.5 * v_at[k] * dq_ds[i];
             }
-        if (!feasible) { ratio = 0.0; goto done; }
+        if (!feasible) { ratio = 0.0; with_peaks = 0; goto done; }  /* no peaks, as NumPy */
         peaks_of(N, n, t, q, dq, nq, kind, j1, j2, limit, peaks);
         with_peaks = 1;
         ratio = max_of(peaks, P);

@@ -312,3 +312,38 @@ def test_a_library_that_cannot_be_called_through_ctypes_leaves_casadis_call() ->
         fns.library = saved_library
         fns.cache.clear()
         fns.cache.update(saved)
+
+
+def test_a_rollout_that_raises_ends_its_chain(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A rollout interrupted between two chunks (here a KeyboardInterrupt from the chunk
+    checks, called directly as a Replanner does) leaves no chain holding the worker thread
+    (found by review: the chain stayed pending, the worker claimed)."""
+    import dataclasses
+
+    from mmplan.planners.extended_jacobian import chunks
+    from mmplan.planners.extended_jacobian.generator import wheel_metric_inverse
+    from mmplan.planners.extended_jacobian.rollout import rollout
+
+    planner, fns, problem = _plan_fns("youbot3r-obstacles-torque")
+    spec = fns._speculate()
+    spec.switch(True)  # guess whatever the machine's load
+    try:
+        prep = planner._prepare(problem, guess=True)  # type: ignore[attr-defined]
+        assert spec.pending  # the first chunks are running
+        original, calls = chunks.run, []
+
+        def interrupted(*args: object, **kwargs: object) -> object:
+            calls.append(1)
+            if len(calls) == 2:
+                raise KeyboardInterrupt
+            return original(*args, **kwargs)  # type: ignore[arg-type]
+
+        monkeypatch.setattr(chunks, "run", interrupted)
+        robot = problem.robot
+        with pytest.raises(KeyboardInterrupt):
+            options = dataclasses.replace(prep.options, torque_control=False)
+            rollout(prep.fns, robot.pfaffian, wheel_metric_inverse(robot), prep.q0, prep.params,
+                    options, prep.switch)  # fmt: skip
+        assert not spec.pending
+    finally:
+        spec.follow_load = True

@@ -137,7 +137,7 @@ def load(key: str, symbolic: Callable[[], GeneratorFunctions]) -> GeneratorFunct
             LazyFunction(functools.partial(_external, f"mmplan_ej_{x}", library)) for x in NAMES
         )
         native = cg.NativeFunction(library, "mmplan_ej_chunk_flat")
-        if not all(native.has(f"mmplan_ej_{x}") for x in NAMES):
+        if not all(native.has(f"mmplan_ej_{x}") for x in (*NAMES, "ee_flat")):
             return None  # loaded lazily: a library without one of them is built again now
     except (OSError, ValueError, KeyError, TypeError, RuntimeError, AttributeError):
         return None

@@ -246,12 +246,6 @@ class GeneratorFunctions:
         self._speculate().guess(np.concatenate([q, np.zeros(n), par]), replace=True,
                                 ahead=chunks - 1, stop=stop_error)  # fmt: skip
 
-    def warm_up(self) -> None:
-        """Load the compiled functions a plan needs after its rollout (``ee_flat``; a task
-        for the rollout's idle waits, :func:`~mmplan.planners.extended_jacobian.prefetch.
-        while_waiting`)."""
-        self._native("ee_flat")
-
     def settle_guesses(self) -> None:
         """End the guessed chunks in flight (the rollout is over: the worker thread is the
         time scaling's)."""

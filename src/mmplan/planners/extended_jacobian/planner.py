@@ -102,18 +102,15 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         prep = self._prepare(problem, guess=True)
         robot = problem.robot
         run = rollout_time_scaled if prep.time_scaling else rollout
-        try:
-            res = run(
-                prep.fns,
-                robot.pfaffian,
-                wheel_metric_inverse(robot),
-                prep.q0,
-                prep.params,
-                prep.options,
-                prep.switch,
-            )
-        finally:  # a rollout that raised leaves no guessed chunks running
-            prep.fns.settle_guesses()
+        res = run(
+            prep.fns,
+            robot.pfaffian,
+            wheel_metric_inverse(robot),
+            prep.q0,
+            prep.params,
+            prep.options,
+            prep.switch,
+        )
         if not prep.time_scaling and prep.options.rates is not None:
             res = retime(res, prep.fns, prep.options)
         ee = prep.fns.ee_positions(res.q)
@@ -172,8 +169,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             raise InputError("goal", f"the {cls.method} planner needs {ReachPoint.goal_form}")
         q0 = ej_checks.check_start(robot, problem.start)
         p_f = np.asarray(task.position, dtype=float)
-        if p_f.shape != (3,) or not np.all(np.isfinite(p_f)):
-            ej_checks.check_goal(robot, p_f)  # its one-line error before anything reads p_f
+        ej_checks.check_goal(robot, p_f)
         terms = [
             ObstacleTerm(
                 ob.enlarged(settings.obstacle_margin).superellipsoid(),
@@ -181,17 +177,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             )
             for ob in problem.scene.obstacles
         ]
-        done: list[bool] = []
-
-        def checks() -> None:
-            """The goal's height and the start's clearance (once): after the first chunk has
-            started (0.6-1.5 ms of a process's first plan off the rollout's path), or before
-            a build of the generator (an error then comes before the compile)."""
-            if not done:
-                done.append(True)
-                ej_checks.check_goal(robot, p_f)
-                ej_checks.check_start_clearance(robot, problem.scene, terms, q0)
-
+        ej_checks.check_start_clearance(robot, problem.scene, terms, q0)
         obstacles = ej_checks.fit_influence(terms, p_f)
         floor = getattr(problem.scene, "ground", None)  # a duck-typed scene may have none
         ground = ej_checks.floor_term(robot, floor, settings.influence, q0, p_f)
@@ -212,8 +198,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             ej_prefetch.while_waiting(topp_passes.load_passes)
             ej_prefetch.while_waiting(topp_passes.load_peaks)
 
-        def before_build(message: str) -> None:
-            checks()
+        def before_build(message: str) -> None:  # a build: the passes compile alongside
             if scaled:
                 topp_passes.prefetch()
             cg.notice(message)
@@ -239,9 +224,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             # its first chunks start meanwhile (each ends by t_max, as the rollout's)
             chunks = int(np.ceil(options.t_max / options.dt)) // fns.chunk_steps
             fns.guess_chunk(q0, params, options.dt, chunks, options.stop_error)
-            ej_prefetch.while_waiting(fns.warm_up)
         try:
-            checks()
             ej_checks.check_conditioning(fns, q0, params, settings.cond_limit)
             if options.torque_control:
                 ej_checks.check_gravity(robot, q0, fns)

@@ -127,8 +127,25 @@ def rollout(
         opt: Options.
         dq0: Start velocity (n,) (re-planning from a moving state); None: rest.
     """
+    try:
+        return _run(fns, pfaffian, winv, q0, p, opt, switch, fast, dq0)
+    finally:  # however it ended: the worker thread is the time scaling's (or the caller's)
+        fns.settle_guesses()
+
+
+def _run(
+    fns: GeneratorFunctions,
+    pfaffian: Any,
+    winv: Array,
+    q0: Array,
+    p: Array,
+    opt: RolloutOptions,
+    switch: PartitionSwitch | None,
+    fast: bool,
+    dq0: Array | None,
+) -> RolloutResult:
+    """:func:`rollout`'s loop (its guessed chunks ended by the caller)."""
     n, dt = fns.n, opt.dt
-    start_fns = fns
     p = np.array(p, dtype=float)
     p_f = p[:3]
     q, dq = np.array(q0, dtype=float), np.zeros(n) if dq0 is None else np.array(dq0, float)
@@ -223,8 +240,6 @@ def rollout(
             status = Status.DIVERGED
             message = divergence.message(t + dt, dq, ddq, opt.coordinates, None)
             break
-    for used in {id(start_fns): start_fns, id(fns): fns}.values():
-        used.settle_guesses()  # the worker thread is free for the time scaling
     info = {
         "max_cond_E": max_cond,
         "escapes": escapes,
