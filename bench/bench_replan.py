@@ -8,9 +8,10 @@ obstacles, the floor), in one run:
 2. cold plan: a plan in a "new process" (the in-memory generator cache cleared, the compiled
    library on disk: loaded without building the symbolic model), and warm plans (generator
    in memory), compute time and motion / compute;
-3. re-plans with ``Replanner.replan`` from a moving state of the plan with the sphere moved
-   (a new position each call), horizon 2 s and to the goal, against the cold plan: ratios in
-   the same run (best of N on a shared machine);
+3. re-plans with ``Replanner.replan`` from a moving state of the plan (with its time rate w)
+   with the sphere moved (a new position each call), horizon 2 s and to the goal, each
+   time-scaled under the robot's limits (the default), against the cold plan: ratios in the
+   same run (best of N on a shared machine);
 4. the same with the generator on CasADi's virtual machine (codegen false): the baseline.
 
 Run: ``python bench/bench_replan.py`` (about a minute; the first step compiles).
@@ -79,12 +80,12 @@ def plans_and_replans(codegen: bool) -> dict[str, float]:
     replanner = Replanner(problem)
     tr = cold.trajectory
     k = len(tr.t) // 3  # a moving state a third of the way
-    q, dq = tr.q[k], tr.dq[k]
+    q, dq, rate = tr.q[k], tr.dq[k], float(tr.u[k]) if tr.u is not None else 1.0
     times: dict[str, list[float]] = {"2 s": [], "goal": []}
     for j in range(REPEAT * 3):
         for label, horizon in (("2 s", 2.0), ("goal", 60.0)):
             start = time.perf_counter()
-            replanner.replan(q, dq, _moved(problem.scene, j), horizon=horizon)
+            replanner.replan(q, dq, _moved(problem.scene, j), horizon=horizon, rate=rate)
             times[label].append(time.perf_counter() - start)
     return {
         "cold": cold.compute_time_s,

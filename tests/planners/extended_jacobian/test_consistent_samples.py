@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from mmplan.planners.extended_jacobian import planner as ej_planner
 from mmplan.planners.extended_jacobian import time_scaling
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
 from mmplan.problem import Problem
@@ -44,11 +45,52 @@ def test_reached_plan_passes_the_dq_check(monkeypatch: pytest.MonkeyPatch) -> No
     assert report.ok, report.failures()
     assert result.info["consistency_rounds"] >= 1
     assert report.dq_residual <= time_scaling.DQ_STEP_TOL * report.dq_scale * (1 + 1e-9)
-    # the same plan without the caps: the defect this scene exhibits
+    # the same plan without the caps (and without the step refinement): the defect this
+    # scene exhibits
     monkeypatch.setattr(time_scaling, "MAX_CONSISTENCY_ROUNDS", 0)
+    monkeypatch.setattr(ej_planner, "MIN_DT", 1.0)
     before = ExtendedJacobian().plan(problem)
     old = check(before.trajectory, problem, before.status)
     assert old.dq_residual > DQ_REL_TOL * old.dq_scale
+    assert any(f.startswith("dq consistency") for f in old.failures())
+
+
+#: A new user's scene: the paper scenario youbot3r-obstacles-torque (the youBot's limits) with
+#: its goal and obstacles moved. At dt = 20 ms the generator's path turns within a step
+#: (cond(E) ~ 4e3), the consistency rounds ran out (8 rounds, residual 0.30/s against 0.08/s,
+#: a 96 s plan) and the check failed (measured).
+MOVED = {
+    "goal": {"position": [10, 8, 0.3], "tolerance": 0.001},
+    "obstacles": [
+        {"shape": "cylinder", "base_center": [0.3, 1.0, 0.0], "radius": 0.2, "height": 0.3,
+         "influence": 0.35},
+        {"shape": "sphere", "center": [1.0, 1.5, 0.4], "radius": 0.2, "influence": 0.15},
+        {"shape": "cylinder", "base_center": [2.0, 2.2, 0.0], "radius": 0.3, "height": 0.15,
+         "influence": 0.35},
+    ],
+}  # fmt: skip
+
+
+def test_a_path_the_rounds_cannot_mend_is_planned_again_with_half_the_step(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import yaml
+
+    from mmplan.scenario.loader import builtin_scenarios
+
+    text = builtin_scenarios()["youbot3r-obstacles-torque"].read_text()
+    data = yaml.safe_load(text)
+    data.update(MOVED, name="turning-path")
+    problem = Scenario.from_dict(data, "turning-path").build()
+    result = ExtendedJacobian().plan(problem)
+    report = check(result.trajectory, problem, result.status)
+    assert result.status.value == "reached" and report.ok, report.failures()
+    assert result.info["refined_dt"] == pytest.approx(0.01)
+    assert "step_residual_ratio" not in result.info
+    monkeypatch.setattr(ej_planner, "MIN_DT", 1.0)  # no refinement: the defect
+    before = ExtendedJacobian().plan(problem)
+    assert before.info["step_residual_ratio"] > 1.0
+    old = check(before.trajectory, problem, before.status)
     assert any(f.startswith("dq consistency") for f in old.failures())
 
 

@@ -21,6 +21,7 @@ from mmplan.compile import codegen
 from mmplan.planners.extended_jacobian import cache as ej_cache
 from mmplan.planners.extended_jacobian import generator as ej_generator
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
+from mmplan.planners.extended_jacobian.replan import Replanner
 from mmplan.scene.scene import Scene
 from mmplan.scene.sphere import Sphere
 from mmplan.task import ReachPoint
@@ -108,6 +109,27 @@ def test_replanning_loop_reaches_the_goal_without_collision(counts: Counts) -> N
     assert len(result.replan_times) >= 50
 
 
+@pytest.mark.parametrize("sight", ["blind", "frozen"])
+def test_a_replanner_that_ignores_the_moving_ball_collides(sight: str) -> None:
+    """The crossing ball is in the way: the same loop re-planning without the ball (blind) or
+    with the obstacles where they were at t = 0 (frozen) collides with it, so the loop's
+    clearance is a test of the re-planning, not of a ball that never comes near."""
+    example = _example()
+    problem, replanner = example.setup()
+    replan = replanner.replan
+
+    def unseeing(q: Any, dq: Any, scene: Scene, **kwargs: Any) -> Any:
+        if sight == "blind":
+            scene = Scene(scene.obstacles[:3], scene.ground)
+        else:
+            scene = example.obstacles_at(problem.scene, 0.0)
+        return replan(q, dq, scene, **kwargs)
+
+    replanner.replan = unseeing
+    result = example.run(seconds=40.0, verbose=False, ready=(problem, replanner))
+    assert result.crossing < -0.05, result
+
+
 def test_online_step_with_culled_obstacle_terms_matches_the_numpy_decision() -> None:
     """The online step (its terms made of the culled obstacle calls, compiled when a compiler
     is present) against the NumPy decision on the generator's terms, at states of a plan
@@ -136,3 +158,72 @@ def test_online_step_with_culled_obstacle_terms_matches_the_numpy_decision() -> 
         assert u == pytest.approx(d.u, abs=1e-9)
         checked, near = checked + 1, near + (terms.S > 0)
     assert checked >= 20 and near >= 5, (checked, near)
+
+
+def _checked(problem: mmplan.Problem, res: Any) -> list[str]:
+    """The independent check's failures of a re-plan from the problem's start."""
+    from mmplan.trajectory import Trajectory
+    from mmplan.verify.check import check
+
+    robot = problem.robot
+    ee = np.array([robot.ee_position(q) for q in res.q])
+    trajectory = Trajectory(
+        coordinates=robot.coordinates, t=res.t, q=res.q, dq=res.dq, ddq=res.ddq, ee=ee,
+        actuators=robot.actuators, tau=res.tau, u=res.u,
+    )  # fmt: skip
+    return check(trajectory, problem, res.status).failures()
+
+
+def test_a_replan_holds_the_robots_limits() -> None:
+    """The paper scenario (the youBot's torque and rate limits) re-planned from its start to
+    the goal: the time-scaled re-plan passes the independent check; the generator's own
+    timing (limits=False) breaks the platform's speed limit and the wheels' torques."""
+    problem = mmplan.load_scenario("youbot3r-obstacles-torque").build()
+    replanner = Replanner(problem)
+    start, rest = np.asarray(problem.start, dtype=float), np.zeros(problem.robot.n)
+    scaled = replanner.replan(start, rest, problem.scene, horizon=60.0)
+    assert scaled.status.value == "reached", scaled.message
+    assert _checked(problem, scaled) == []
+    free = replanner.replan(start, rest, problem.scene, horizon=60.0, limits=False)
+    failures = _checked(problem, free)
+    assert any("platform speed" in f for f in failures), failures
+    assert any(f.startswith("torque limits") for f in failures), failures
+
+
+def test_a_replan_from_a_moving_state_starts_at_its_velocity() -> None:
+    """From a state of the plan (q, dq and its time rate w, the u column) the re-plan starts
+    at dq exactly and keeps every rate and effort within the limits."""
+    problem = mmplan.load_scenario("youbot3r-obstacles-torque").build()
+    plan = ExtendedJacobian().plan(problem).trajectory
+    assert plan.u is not None
+    replanner = Replanner(problem)
+    for t in (2.0, 5.0, 9.0):
+        k = int(np.searchsorted(plan.t, t))
+        q, dq, w = plan.q[k], plan.dq[k], float(plan.u[k])
+        res = replanner.replan(q, dq, problem.scene, horizon=2.0, rate=w)
+        np.testing.assert_allclose(res.dq[0], dq, rtol=1e-12, atol=1e-12)
+        assert res.info["start_rate"] == pytest.approx(w, rel=1e-12)
+        assert res.info["max_rate_ratio"] <= 1.0 + 1e-9
+        assert res.info["max_torque_violation"] == 0.0
+        assert res.status.value in ("timeout", "reached"), res.message
+
+
+def test_a_goal_under_an_obstacle_holds_and_bad_states_are_input_errors() -> None:
+    problem = mmplan.load_scenario("youbot3r-obstacles-unlimited").build()
+    replanner = Replanner(problem)
+    q, dq = np.asarray(problem.start, dtype=float), np.full(problem.robot.n, 0.01)
+    ball = Sphere(tuple(problem.task.position), 0.2, 0.2)
+    scene = Scene((*problem.scene.obstacles, ball), problem.scene.ground)
+    held = replanner.replan(q, dq, scene)
+    assert held.status.value == "infeasible" and "goal blocked" in held.message
+    assert len(held.t) == 1
+    np.testing.assert_array_equal(held.q[0], q)
+    np.testing.assert_array_equal(held.dq[0], dq)
+    from mmplan.errors import InputError
+
+    with pytest.raises(InputError, match=r"^q: "):
+        replanner.replan(np.full_like(q, np.nan), dq, problem.scene)
+    with pytest.raises(InputError, match=r"^dq: "):
+        replanner.replan(q, dq[:3], problem.scene)
+    with pytest.raises(InputError, match=r"^rate: "):
+        replanner.replan(q, dq, problem.scene, rate=1.5)

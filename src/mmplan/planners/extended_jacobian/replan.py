@@ -10,12 +10,26 @@ again at the current state). A scene needing more slots of a shape type than the
 has, or a new shape type, is an ``InputError`` (make the replanner with more ``spare`` slots
 or ``shapes``).
 
-A re-plan is the generator's motion over ``horizon`` seconds at its own timing, with the
-obstacle perturbation of [PajakPajak] eq. (19), started at the given velocity: it is not
-re-timed (a time scaling from a moving start is not defined by
-:mod:`~mmplan.planners.extended_jacobian.time_scaling`) and runs without the virtual
-control, whose u would restart at 0. A control loop follows its first samples and re-plans
+A re-plan is the generator's path over ``horizon`` seconds of its own time, with the
+obstacle perturbation of [PajakPajak] eq. (19), and then, when the robot has torque or rate
+limits, time-scaled under them as a plan is
+(:func:`~mmplan.planners.extended_jacobian.time_scaling.scale_path`, time mode). A time-scaled
+plan moves along its path at the rate w (its ``u`` column) of the generator's own speed q';
+a re-plan from a state of such a plan continues it when it is given that ``rate``: the
+generator starts at q' = dq / w and the scaling at w_0 = w, so the re-plan starts at the
+robot's velocity dq. (Started at q' = dq with w_0 = 1, the generator's path accelerates at
+once towards its own speed and no w_0 near 1 holds the limits: measured from the paper plan at
+t = 5 s, w_0 0.52, a step of 6 rad/s in a wheel's rate.) The generator runs without
+the virtual control (whose u would restart at 0). Without the scaling (``limits=False``, or a
+robot without limits) the re-plan keeps the generator's timing, which breaks real limits
+(measured on youbot3r-obstacles-torque from its start: platform 2.0 m/s against 0.8, wheel
+torque over by 7.7 N m). A control loop follows its first samples and re-plans
 (``examples/replan_moving_obstacle.py``).
+
+A goal inside an obstacle (an obstacle passing over it) is no error here: the re-plan holds
+the given state (one sample, status ``infeasible``, the message says which obstacle), and a
+later re-plan, with the obstacle gone, moves on. A state of the wrong size or not finite is an
+``InputError``.
 """
 
 from __future__ import annotations
@@ -44,12 +58,16 @@ from mmplan.planners.extended_jacobian.posture import heading_reference, posture
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
 from mmplan.planners.extended_jacobian.switching import PartitionSwitch
+from mmplan.planners.extended_jacobian.time_scaling import scale_path
 from mmplan.problem import Problem
 from mmplan.robot.ground import ground_sphere_indices
 from mmplan.task import ReachPoint
+from mmplan.trajectory import Status
 
 #: Default re-planning horizon [s].
 HORIZON = 3.0
+#: A time rate at or below this is the robot at rest (its path velocity dq / w undefined).
+RATE_AT_REST = 1e-6
 
 
 class Replanner:
@@ -70,6 +88,8 @@ class Replanner:
         self.goal = np.asarray(problem.task.position, dtype=float)
         options = RolloutOptions.from_settings(self.settings, self.robot, self.tolerance)
         self.options = dataclasses.replace(options, torque_control=False)
+        self.limits = options  # the time scaling's: the torque zone, the rate limits
+        self.limited = options.torque_control or options.rates is not None
         kinds = [ob.superellipsoid().exponents for ob in problem.scene.obstacles]
         kinds += [e for e in shapes for _ in range(spare)]
         slots = slots_for(kinds)
@@ -129,12 +149,28 @@ class Replanner:
         scene: Any,
         goal: ArrayLike | None = None,
         horizon: float = HORIZON,
+        limits: bool = True,
+        rate: float = 1.0,
     ) -> RolloutResult:
         """The generator's motion from (q, dq) among ``scene``'s obstacles towards ``goal``
-        (default: the problem's) for at most ``horizon`` seconds (module docstring)."""
-        qv, dqv = np.asarray(q, dtype=float), np.asarray(dq, dtype=float)
+        (default: the problem's) over at most ``horizon`` seconds of its path, time-scaled
+        under the robot's limits unless ``limits`` is False; ``rate``: the time rate w at
+        (q, dq) of the time-scaled plan the robot follows (its ``u`` column; module
+        docstring)."""
+        qv, dqv = self._state(q, "q"), self._state(dq, "dq")
+        if not (np.isfinite(rate) and 0.0 <= rate <= 1.0):
+            raise InputError("rate", f"need 0 <= rate <= 1, got {rate}")
+        scaled = limits and self.limited
+        path_dq = dqv  # q' of the path: dq / w (w = 0: at rest)
+        if scaled:
+            path_dq = dqv / rate if rate > RATE_AT_REST else np.zeros_like(dqv)
         target = self.goal if goal is None else np.asarray(goal, dtype=float)
-        p, part = self.params(qv, scene, target)
+        try:
+            p, part = self.params(qv, scene, target)
+        except InputError as err:
+            if err.field != "goal.position":
+                raise
+            return self._hold(qv, dqv, target, f"goal blocked: {err.problem}")
         opt = dataclasses.replace(self.options, t_max=horizon)
 
         def build(other: Partition) -> GeneratorFunctions:
@@ -143,4 +179,24 @@ class Replanner:
             return self._generator(other, codegen=False)  # built in: the VM, no compile
 
         switch = PartitionSwitch(self.robot, build, [part], opt.switch_cond)
-        return rollout(self.fns, self.robot.pfaffian, self.winv, qv, p, opt, switch, dq0=dqv)
+        free = rollout(self.fns, self.robot.pfaffian, self.winv, qv, p, opt, switch, dq0=path_dq)
+        if not scaled or len(free.t) < 2:
+            return free
+        start = rate if rate > RATE_AT_REST else None  # at rest: as a plan starts
+        return scale_path(free, self.fns, self.limits, time_mode=True, start_rate=start)
+
+    def _state(self, x: ArrayLike, name: str) -> Array:
+        v = np.asarray(x, dtype=float)
+        if v.shape != (self.robot.n,) or not np.all(np.isfinite(v)):
+            raise InputError(name, f"need {self.robot.n} finite numbers, got shape {v.shape}")
+        return v
+
+    def _hold(self, q: Array, dq: Array, goal: Array, message: str) -> RolloutResult:
+        """One sample: the state, with status infeasible and ``message``."""
+        n, a = self.robot.n, len(self.robot.actuators)
+        one = np.zeros((1, n))
+        return RolloutResult(
+            Status.INFEASIBLE, message, np.zeros(1), q[None, :], dq[None, :], one,
+            np.zeros((1, a)), np.zeros(1), np.ones(1),
+            np.array([float(np.linalg.norm(self.robot.ee_position(q) - goal))]),
+        )  # fmt: skip

@@ -105,10 +105,12 @@ def step_residuals(t: Array, q: Array, dq: Array) -> Array:
 def _retime_consistent(
     path: RolloutResult, opt: RolloutOptions, rows: tuple[Array, Array, Array, Array, Array],
     x_start: float | None,
-) -> tuple[Retimed, int]:
+) -> tuple[Retimed, int, float]:
     """:func:`retime_path`, then, while a step's samples miss its motion (trapezoid residual
     above ``DQ_STEP_TOL`` x peak |dq|), the same scaling with x capped at both ends of those
-    steps and run again; returns the result and the extra rounds.
+    steps and run again; returns the result, the extra rounds and the largest residual over
+    its target at the end (above 1 when the rounds ran out: the planner then plans again with
+    a smaller step, :mod:`~mmplan.planners.extended_jacobian.planner`).
 
     Cause (measured on random youbot-3r scenes with dt = 20 ms): where the generator's path
     turns sharply within one step (a wheel's q' from -0.03 to -1 per unit sigma), the scaling
@@ -132,13 +134,13 @@ def _retime_consistent(
             x_start=x_start,
         )  # fmt: skip
         sc = timed.scaling
-        if not sc.feasible or N < 2 or rounds >= MAX_CONSISTENCY_ROUNDS:
-            return timed, rounds
+        if not sc.feasible or N < 2:
+            return timed, rounds, 0.0
         r = step_residuals(sc.t, path.q, timed.dq)
         target = DQ_STEP_TOL * max(float(np.max(np.abs(timed.dq))), 1e-3)
         over = np.flatnonzero(r > target)
-        if not over.size:
-            return timed, rounds
+        if not over.size or rounds >= MAX_CONSISTENCY_ROUNDS:
+            return timed, rounds, float(np.max(r[over]) / target) if over.size else 0.0
         rounds += 1
         factor = (target / r[over]) ** 2 * 0.9
         for ends in (over, over + 1):
@@ -146,7 +148,11 @@ def _retime_consistent(
 
 
 def scale_path(
-    path: RolloutResult, fns: GeneratorFunctions, opt: RolloutOptions, time_mode: bool
+    path: RolloutResult,
+    fns: GeneratorFunctions,
+    opt: RolloutOptions,
+    time_mode: bool,
+    start_rate: float | None = None,
 ) -> RolloutResult:
     """Time-optimal scaling (w <= 1) of ``path`` (its dq, ddq are q', q'' in its own time,
     from rest) under the safety zone of the efforts (when ``opt.torque_control``) and the rate
@@ -155,18 +161,30 @@ def scale_path(
     Args:
         time_mode: ``u`` is w (time mode); else ``u`` stays the path's virtual control and
             w is returned apart.
+        start_rate: w_0 of a path that starts at a velocity (a re-plan of a moving robot:
+            dq_0 = q'_0 w_0 is its velocity). Where the limits cannot hold the path from that
+            rate on, w_0 is the largest they admit, a step in the velocity;
+            ``info["start_rate"]`` is the w_0 used.
     """
     beta, g = _effort_split(path, fns)
     alpha = path.tau - g
     n_act = alpha.shape[1]
     lo, hi = opt.zone if opt.torque_control else (np.full(n_act, -np.inf), np.full(n_act, np.inf))
-    timed, consistency_rounds = _retime_consistent(
-        path, opt, (alpha, beta, g, lo, hi),
-        x_start=0.0 if time_mode and opt.rates is None else None,
-    )  # fmt: skip
+    rows = (alpha, beta, g, lo, hi)
+    moving = start_rate is not None
+    start = 0.0 if time_mode and opt.rates is None else None
+    if start_rate is not None:
+        start = start_rate**2
+    timed, consistency_rounds, residual = _retime_consistent(path, opt, rows, x_start=start)
+    if moving and not timed.scaling.feasible:
+        timed, consistency_rounds, residual = _retime_consistent(path, opt, rows, x_start=None)
     sc = timed.scaling
     info = dict(path.info)
+    if moving and sc.feasible:
+        info["start_rate"] = float(np.sqrt(sc.x[0]))
     info["consistency_rounds"] = consistency_rounds
+    if residual > 1.0:
+        info["step_residual_ratio"] = residual
     info["generator_duration_s"] = float(path.t[-1])
     if time_mode:
         info["virtual_control"] = "time"
