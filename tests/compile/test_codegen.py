@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 import sys
 from pathlib import Path
 
@@ -177,3 +178,20 @@ def test_a_library_calls_its_own_function_whatever_is_loaded_globally(cache: Pat
     native = cg.NativeFunction(three, "mmplan_test_same")
     native.x[:] = [1.0]
     np.testing.assert_array_equal(native(), [3.0])
+
+
+def test_a_cc_that_is_not_found_is_no_compiler_and_says_so(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A new user's ``CC=/nonexistent`` compiled with cc, and the endogenous planner's and the
+    arm IK's functions fell back to the virtual machine without a word."""
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    assert cg.compiler() is None
+    x = ca.SX.sym("x")
+    f = ca.Function("mmplan_test_no_cc", [x], [2 * x])
+    same, backend = cg.compile_function(f)
+    assert backend == "vm" and same is f
+    err = capsys.readouterr().err
+    assert "$CC = /nonexistent/cc was not found" in err and "mmplan_test_no_cc" in err
+    monkeypatch.delenv("CC")
+    assert cg.compiler() == (shutil.which("gcc") or shutil.which("cc"))

@@ -66,14 +66,24 @@ def _cache_dir(given: str | None, temporary: str) -> Path:
 
 
 def compiler() -> str | None:
-    """Path of the C compiler (``$CC``, gcc or cc), None when there is none (looked up once
-    per value of ``$CC`` and ``$PATH``: a lookup costs 1-5 ms and a plan asks several times)."""
-    return _which(os.environ.get("CC", "gcc"), os.environ.get("PATH", ""))
+    """Path of the C compiler (``$CC`` when set, else gcc or cc), None when there is none
+    (looked up once per value of ``$CC`` and ``$PATH``: a lookup costs 1-5 ms and a plan asks
+    several times). A ``$CC`` that is not found is no compiler (not another one in its place:
+    a new user's ``CC=/nonexistent`` compiled with cc)."""
+    return _which(os.environ.get("CC"), os.environ.get("PATH", ""))
 
 
 @lru_cache(maxsize=8)
-def _which(cc: str, path: str) -> str | None:
-    return shutil.which(cc, path=path) or shutil.which("cc", path=path)
+def _which(cc: str | None, path: str) -> str | None:
+    if cc:
+        return shutil.which(cc, path=path)
+    return shutil.which("gcc", path=path) or shutil.which("cc", path=path)
+
+
+def no_compiler() -> str:
+    """What is missing, for a notice: no compiler found, or ``$CC`` not found."""
+    cc = os.environ.get("CC")
+    return f"the C compiler $CC = {cc} was not found" if cc else "no C compiler found"
 
 
 def _source(functions: Sequence[ca.Function]) -> str:
@@ -448,6 +458,9 @@ def compile_function(
 ) -> tuple[ca.Function, str]:
     """A C-compiled equivalent of ``function`` (cached library named after it) and the backend
     used, ``"c"``; ``(function, "vm")`` without a compiler or when compiling fails."""
+    if compiler() is None:
+        notice(f"{no_compiler()}: {function.name()} runs on CasADi's virtual machine")
+        return function, "vm"
     library = compile_library([function], function.name(), flags)
     if library is None:
         return function, "vm"

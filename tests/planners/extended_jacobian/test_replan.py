@@ -227,3 +227,42 @@ def test_a_goal_under_an_obstacle_holds_and_bad_states_are_input_errors() -> Non
         replanner.replan(q, dq[:3], problem.scene)
     with pytest.raises(InputError, match=r"^rate: "):
         replanner.replan(q, dq, problem.scene, rate=1.5)
+
+
+@pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
+def test_fewer_obstacles_or_shape_types_use_a_wider_library_without_a_compile(
+    counts: Counts, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A new user added a third cylinder to the paper scene (4 cylinder slots compiled), then
+    planned the paper scene and one without its sphere: each compiled again (2 s apiece).
+    Now a library with at least a scene's slots of each shape type serves it (its unused
+    slots parked)."""
+    from mmplan.planners.extended_jacobian import compiled as ej_compiled
+    from mmplan.scene.cylinder import Cylinder
+    from mmplan.verify.check import check
+
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    ej_cache.clear()
+    base = mmplan.load_scenario("youbot3r-obstacles-torque").build()
+    obstacles, ground = base.scene.obstacles, base.scene.ground
+    third = Cylinder((3.0, 0.5, 0.0), 0.2, 0.3, 0.35)  # away from the path
+    wide = dataclasses.replace(base, scene=Scene((*obstacles, third), ground))
+    assert ExtendedJacobian().plan(wide).status.value == "reached"
+    assert counts.compiles >= 1
+    assert len(list(tmp_path.glob("ej_family_*.json"))) == 1
+    for scene in (base.scene, Scene((obstacles[0], obstacles[2]), ground)):
+        ej_cache.clear()  # as a new process
+        counts.compiles = counts.builds = 0
+        problem = dataclasses.replace(base, scene=scene)
+        sol = ExtendedJacobian().plan(problem)
+        assert sol.status.value == "reached", sol.message
+        assert check(sol.trajectory, problem, sol.status).ok
+        assert (counts.compiles, counts.builds) == (0, 0)
+    # without the family's list the same scene compiles (the test can fail)
+    for listed in tmp_path.glob("ej_family_*.json"):
+        listed.unlink()
+    ej_cache.clear()
+    counts.compiles = 0
+    ExtendedJacobian().plan(dataclasses.replace(base, scene=Scene(obstacles[:1], ground)))
+    assert counts.compiles >= 1
+    assert ej_compiled.wider("none", ()) == []

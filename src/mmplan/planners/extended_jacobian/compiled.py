@@ -76,6 +76,64 @@ def disk_key(
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
 
+def family_key(robot: Any, settings: Sequence[Any]) -> str:
+    """Key of the generators of ``robot`` and these model settings whatever their obstacle
+    slots (partition a parameter): the libraries :func:`remember` lists together."""
+    parts = [
+        "family",
+        robot_fingerprint(robot),
+        repr(tuple(settings)),
+        source_fingerprint(_code_files()),
+        repr(CFLAGS),
+        cg.host() if cg.native_flags(CFLAGS) else "",
+    ]
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
+
+
+def _family_path(family: str) -> Path:
+    return cg.cache_dir() / f"ej_family_{family}.json"
+
+
+def _family(family: str) -> dict[str, Any]:
+    try:
+        data = json.loads(_family_path(family).read_text())
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def remember(family: str, slots: Sequence[tuple[Shape, int]], key: str) -> None:
+    """List the library ``key`` (these slots) among its family's (atomic write; two processes
+    writing at once may drop one entry: that library is then only found by its own key)."""
+    entries = _family(family)
+    entries[key] = [[list(e), k] for e, k in slots]
+    path = _family_path(family)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as out:
+            json.dump(entries, out)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+def wider(
+    family: str, slots: Sequence[tuple[Shape, int]]
+) -> list[tuple[str, tuple[tuple[Shape, int], ...]]]:
+    """Keys and slots of the family's libraries with at least ``slots``' slots of each shape
+    type (more slots or more types: unused slots are parked), the fewest slots first."""
+    need = dict(slots)
+    found: list[tuple[int, str, tuple[tuple[Shape, int], ...]]] = []
+    for key, listed in _family(family).items():
+        try:
+            have = tuple(((float(e[0]), float(e[1])), int(k)) for e, k in listed)
+        except (TypeError, ValueError, IndexError):
+            continue
+        if all(dict(have).get(e, 0) >= k for e, k in need.items()):
+            found.append((sum(k for _, k in have), key, have))
+    return [(key, have) for _, key, have in sorted(found)]
+
+
 def _external(name: str, library: str) -> ca.Function:
     (fn,) = cg.load([name], library)
     return fn
