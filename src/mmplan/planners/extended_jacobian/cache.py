@@ -108,7 +108,7 @@ def generator(
             if fns is not None and (built_in is not None or fns.layout.supports(partition)):
                 break
             fns = None
-        family = ej_compiled.family_key(robot, model)
+        family = "" if fns is not None else ej_compiled.family_key(robot, model)
         for wide, its in [] if fns is not None else ej_compiled.wider(family, slots):
             # a library with more slots (or more shape types) serves this scene: no compile
             fns = ej_compiled.load(wide, functools.partial(symbolic, slots=its))
