@@ -196,11 +196,38 @@ def test_compiled_c_matches_the_virtual_machine(robot, rng, tmp_path, monkeypatc
     c = EndogenousModel(robot, 1.0, (3, 5), 50, bounds, A_SHARP, 1.0, codegen=True)
     assert vm.backend == "vm"
     assert c.backend == ("c" if shutil.which("gcc") or shutil.which("cc") else "vm")
-    assert list(tmp_path.glob("endpoint_*.so")) or c.backend == "vm"
+    assert list(tmp_path.glob("endogenous_*.so")) or c.backend == "vm"
     qp0, yd = np.array([1.0, 2.0, 0.3, 0.1]), np.array([0.0, 0.0, 1.0])
     lam, x = rng.normal(0, 0.5, 8), np.array([0.2, 1.0, 0.4])
     for got, want in zip(c.evaluate(qp0, lam, x, yd), vm.evaluate(qp0, lam, x, yd), strict=True):
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    for got, want in zip(c.trajectory(qp0, lam), vm.trajectory(qp0, lam), strict=True):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_a_compiled_model_is_loaded_again_without_its_symbolic_build(  # type: ignore[no-untyped-def]
+    robot, tmp_path, monkeypatch
+) -> None:
+    """A new user's audit: every process built the symbolic model again (and generated its C
+    to find the library by the source). Now the library's key is the model's description."""
+    if shutil.which("gcc") is None and shutil.which("cc") is None:
+        pytest.skip("no C compiler")
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    bounds = [ResolvedBound(PSI, -0.5, 0.5)]
+    first = EndogenousModel(robot, 1.0, (3, 5), 40, bounds, A_SHARP, 1.0, codegen=True)
+    builds = []
+    build = EndogenousModel._build
+    monkeypatch.setattr(EndogenousModel, "_build", lambda self: builds.append(1) or build(self))
+    again = EndogenousModel(robot, 1.0, (3, 5), 40, bounds, A_SHARP, 1.0, codegen=True)
+    assert builds == [] and again.backend == first.backend == "c"
+    other = EndogenousModel(robot, 1.0, (3, 5), 40, [ResolvedBound(PSI, -0.4, 0.4)], A_SHARP,
+                            1.0, codegen=True)  # fmt: skip
+    assert builds == [1] and other.disk_key() != again.disk_key()
+    qp0, lam, x = np.array([1.0, 2.0, 0.3, 0.1]), np.linspace(-0.3, 0.3, 8), np.zeros(3)
+    yd = np.array([0.0, 0.0, 1.0])
+    for got, want in zip(again.evaluate(qp0, lam, x, yd), first.evaluate(qp0, lam, x, yd),
+                         strict=True):  # fmt: skip
+        np.testing.assert_array_equal(got, want)
 
 
 def test_arm_box_saturating_coordinates() -> None:

@@ -27,14 +27,19 @@ with its sensitivity ``S = d(q_p, w)/d(lambda, x)``, ``dS/dt = A(t) S + d f/d(la
 that the dynamics depend on are integrated (lambda and the bounded arm joints; the other arm
 columns of S stay zero). State and sensitivity are integrated by one fixed-step RK4 scheme
 (``steps`` steps on [0, T], basis values at t, t + h/2, t + h precomputed) inside one CasADi
-function: an MX function whose rollout is a ``mapaccum`` loop over a small SX step, optionally
-compiled to C (:func:`mmplan.compile.codegen.compile_function`). RK4 applied to the variational
+function: an MX function whose rollout is a ``mapaccum`` loop over a small SX step. With
+``codegen`` it is compiled to C together with the platform path and its rates, in one library
+keyed by the model's description (:meth:`EndogenousModel.disk_key`), so a later process loads
+it without building the symbolic model (measured on car-rtr-steer30, three alternated CLI
+pairs: 87-93 ms a plan against 99-106 ms when every process built the model and generated its
+C to find the library; the same samples to the bit). RK4 applied to the variational
 equations is exactly the derivative of the discrete RK4 end point map, which keeps the
 theta-iteration consistent with the trajectory it reports.
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -43,7 +48,11 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
+from mmplan.compile.fingerprint import robot_fingerprint, source_fingerprint
 from mmplan.robot.robot import Robot
+
+#: The compiled model's functions, by name in its library.
+LIBRARY_FUNCTIONS = ("endogenous_endpoint", "endogenous_platform_path", "endogenous_rates")
 
 
 @dataclass(frozen=True)
@@ -82,8 +91,8 @@ class EndogenousModel:
         bounds: State bounds (indices in robot order).
         sharpness: a of the plus function.
         regularizer_weight: varrho of r(q) = varrho (q - c)^2.
-        codegen: Compile the end point function to C (cached; see
-            :func:`~mmplan.compile.codegen.compile_function`); ``backend`` says what runs.
+        codegen: Compile the model to C (cached: module docstring; without a compiler one
+            notice line and the virtual machine); ``backend`` says what runs.
     """
 
     def __init__(
@@ -113,11 +122,41 @@ class EndogenousModel:
         self._weight = float(regularizer_weight)
         self.backend = "vm"
         self.endpoint: ca.Function
-        self._build()
-        if codegen:
-            # -O1 compiles in a fraction of the time of -O2 at the same speed here.
-            self.endpoint, self.backend = cg.compile_function(self.endpoint, ("-O1",))
+        self.platform_path: ca.Function
+        self.rates: ca.Function
+        library = self._library() if codegen else None
+        if library is not None:  # loaded without building the symbolic model
+            self.endpoint, self.platform_path, self.rates = cg.load(LIBRARY_FUNCTIONS, library)
+            self.backend = "c"
+        else:
+            self._build()
         self._bind()
+
+    def _library(self) -> str | None:
+        """The compiled library of this model (end point map, platform path, rates), built on
+        its first use and found again by :meth:`disk_key` without building the model; None
+        without a compiler (with a notice) or when the build fails."""
+        if cg.compiler() is None:
+            cg.notice(f"{cg.no_compiler()}: the endogenous model runs on CasADi's virtual machine")
+            return None
+
+        def functions() -> list[ca.Function]:
+            self._build()
+            return [self.endpoint, self.platform_path, self.rates]
+
+        # -O1 compiles in a fraction of the time of -O2 at the same speed here.
+        return cg.compile_library(functions, "endogenous", ("-O1",), key=self.disk_key())
+
+    def disk_key(self) -> str:
+        """What the compiled model depends on: the robot model, horizon, basis, steps, bounds,
+        sharpness, regularizer weight and the code that builds it."""
+        parts = [
+            robot_fingerprint(self.robot),
+            repr((self.horizon, self.basis_terms, self.steps, self._sharpness, self._weight)),
+            repr([(b.index, b.lower, b.upper) for b in self.bounds]),
+            source_fingerprint([__file__, cg.__file__]),
+        ]
+        return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
     def _bind(self) -> None:
         """Bind NumPy arrays to the end point function (CasADi ``Function.buffer``): a call
@@ -245,7 +284,7 @@ class EndogenousModel:
         J = C_full @ ST @ ca.DM(select) + D_full  # [JaniakTchon] eq. (7), (3 + n_b, n_par)
         e = ca.vertcat(k(ca.vertcat(qpT, x_m)) - yd_m, wT - vT)  # [JaniakTchon] eq. (19)
         self.endpoint = ca.Function(
-            "endpoint",
+            "endogenous_endpoint",
             [qp0_m, lam_m, x_m, yd_m],
             [ca.densify(e), ca.densify(J), ca.densify(vT)],
             ["qp0", "lam", "x", "yd"],
@@ -255,13 +294,14 @@ class EndogenousModel:
         # Trajectory without sensitivities: q_p on the RK4 grid.
         roll_plain = step_plain.mapaccum("roll_plain", N)
         traj = ca.horzcat(qp0_m, roll_plain(qp0_m, times, ca.repmat(lam_m, 1, N)))
-        self.platform_path = ca.Function("platform_path", [qp0_m, lam_m], [traj])
+        self.platform_path = ca.Function("endogenous_platform_path", [qp0_m, lam_m], [traj])
 
         # Rates along the path: u, du/dt, dq_p = G u, ddq_p = dG/dq dq_p u + G du/dt.
         dphi = ca.SX.sym("dphi", n_phi)
         dq = G @ u
         ddq = ca.jacobian(dq, qp) @ dq + G @ self.control(dphi, lam)
-        self.rates = ca.Function("rates", [qp, phi, dphi, lam], [u, dq, ddq]).map(N + 1)
+        rates = ca.Function("rates", [qp, phi, dphi, lam], [u, dq, ddq])
+        self.rates = rates.map("endogenous_rates", "serial", N + 1, [], [])
 
     # ------------------------------------------------------------------ numpy API
     def evaluate(self, qp0: Array, lam: Array, x: Array, yd: Array) -> tuple[Array, Array]:
