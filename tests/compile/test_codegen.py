@@ -195,3 +195,5 @@ def test_a_cc_that_is_not_found_is_no_compiler_and_says_so(
     assert "$CC = /nonexistent/cc was not found" in err and "mmplan_test_no_cc" in err
     monkeypatch.delenv("CC")
     assert cg.compiler() == (shutil.which("gcc") or shutil.which("cc"))
+    monkeypatch.setenv("CC", "ccache gcc")  # arguments: not passed on, gcc or cc as unset
+    assert cg.compiler() == (shutil.which("gcc") or shutil.which("cc"))

@@ -68,9 +68,15 @@ def _cache_dir(given: str | None, temporary: str) -> Path:
 def compiler() -> str | None:
     """Path of the C compiler (``$CC`` when set, else gcc or cc), None when there is none
     (looked up once per value of ``$CC`` and ``$PATH``: a lookup costs 1-5 ms and a plan asks
-    several times). A ``$CC`` that is not found is no compiler (not another one in its place:
-    a new user's ``CC=/nonexistent`` compiled with cc)."""
-    return _which(os.environ.get("CC"), os.environ.get("PATH", ""))
+    several times). A ``$CC`` naming one program that is not found is no compiler (not another
+    one in its place: a new user's ``CC=/nonexistent`` compiled with cc); a ``$CC`` with
+    arguments (``ccache gcc``), which this module cannot pass on, is not used (gcc or cc)."""
+    return _which(_given_cc(), os.environ.get("PATH", ""))
+
+
+def _given_cc() -> str | None:
+    cc = os.environ.get("CC", "").strip()
+    return cc if cc and len(cc.split()) == 1 else None
 
 
 @lru_cache(maxsize=8)
@@ -82,7 +88,7 @@ def _which(cc: str | None, path: str) -> str | None:
 
 def no_compiler() -> str:
     """What is missing, for a notice: no compiler found, or ``$CC`` not found."""
-    cc = os.environ.get("CC")
+    cc = _given_cc()
     return f"the C compiler $CC = {cc} was not found" if cc else "no C compiler found"
 
 

@@ -227,6 +227,34 @@ def test_a_goal_under_an_obstacle_holds_and_bad_states_are_input_errors() -> Non
         replanner.replan(q, dq[:3], problem.scene)
     with pytest.raises(InputError, match=r"^rate: "):
         replanner.replan(q, dq, problem.scene, rate=1.5)
+    with pytest.raises(InputError, match=r"^horizon: "):
+        replanner.replan(q, dq, problem.scene, horizon=-1.0)
+    with pytest.raises(InputError, match=r"^goal: "):
+        replanner.replan(q, dq, problem.scene, goal=[1.0, 2.0])
+    too_many = Scene((*problem.scene.obstacles, *(Sphere((9.0, float(i), 0.4), 0.1, 0.1)
+                                                  for i in range(6)), ball), None)  # fmt: skip
+    with pytest.raises(InputError, match=r"^scene: .*spare slots"):  # before the goal's check
+        replanner.replan(q, dq, too_many)
+
+
+def test_a_scaled_replan_without_a_path_keeps_the_robots_velocity() -> None:
+    """A review's case: a time-scaled re-plan with one sample (the generator diverged at once:
+    a ball around the end effector) returned the generator's velocity dq / w; and a rate 0 for
+    a moving robot is an error (its velocity was dropped without a word)."""
+    from mmplan.errors import InputError
+
+    problem = mmplan.load_scenario("youbot3r-obstacles-torque").build()
+    replanner = Replanner(problem)
+    q, dq = np.asarray(problem.start, dtype=float), np.full(problem.robot.n, 0.05)
+    around = Sphere(tuple(problem.robot.ee_position(q)), 0.1, 0.1)
+    scene = Scene((*problem.scene.obstacles, around), problem.scene.ground)
+    res = replanner.replan(q, dq, scene, rate=0.5)
+    assert len(res.t) == 1, res.message
+    np.testing.assert_array_equal(res.dq[0], dq)
+    with pytest.raises(InputError, match=r"^rate: 0\.0 with a moving robot"):
+        replanner.replan(q, dq, problem.scene, rate=0.0)
+    still = replanner.replan(q, np.zeros_like(dq), problem.scene, horizon=1.0, rate=0.0)
+    assert len(still.t) > 1 and np.all(still.dq[0] == 0.0)
 
 
 @pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
@@ -258,6 +286,15 @@ def test_fewer_obstacles_or_shape_types_use_a_wider_library_without_a_compile(
         assert sol.status.value == "reached", sol.message
         assert check(sol.trajectory, problem, sol.status).ok
         assert (counts.compiles, counts.builds) == (0, 0)
+    # the paper scene through the wider library: the same samples as through its own
+    wide_plan = ExtendedJacobian().plan(base).trajectory
+    monkeypatch.delenv("MMPLAN_CACHE", raising=False)
+    ej_cache.clear()
+    own = ExtendedJacobian().plan(base).trajectory
+    np.testing.assert_array_equal(wide_plan.t, own.t)
+    np.testing.assert_array_equal(wide_plan.q, own.q)
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    ej_cache.clear()
     # without the family's list the same scene compiles (the test can fail)
     for listed in tmp_path.glob("ej_family_*.json"):
         listed.unlink()
@@ -266,3 +303,53 @@ def test_fewer_obstacles_or_shape_types_use_a_wider_library_without_a_compile(
     ExtendedJacobian().plan(dataclasses.replace(base, scene=Scene(obstacles[:1], ground)))
     assert counts.compiles >= 1
     assert ej_compiled.wider("none", ()) == []
+
+
+def test_the_consistency_rounds_do_not_step_a_moving_start() -> None:
+    """A review's case: a ball 0.3-0.8 m from the end effector at t = 0.5 s. The consistency
+    caps took x_start = w^2 out of the controllable set and the scaling then started at the
+    largest admissible rate: w 0.355 -> 0.064, a step of 4.7 rad/s in a wheel's rate. The last
+    round that keeps the start is returned instead."""
+    problem = mmplan.load_scenario("youbot3r-obstacles-torque").build()
+    plan = ExtendedJacobian().plan(problem).trajectory
+    assert plan.u is not None
+    replanner = Replanner(problem)
+    k = int(np.searchsorted(plan.t, 0.5))
+    q, dq, w = plan.q[k], plan.dq[k], float(plan.u[k])
+    rng = np.random.default_rng(0)
+    ee = problem.robot.ee_position(q)
+    for _ in range(3):
+        c = ee + np.r_[rng.uniform(0.3, 0.8) * np.sign(rng.normal()), rng.uniform(-0.5, 0.5), 0]
+        c[2] = 0.35
+        scene = Scene((*problem.scene.obstacles, Sphere(tuple(c), 0.2, 0.2)), problem.scene.ground)
+        res = replanner.replan(q, dq, scene, horizon=2.0, rate=w)
+        assert res.info["start_rate"] == pytest.approx(w, rel=1e-12), (c, res.message)
+        np.testing.assert_allclose(res.dq[0], dq, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
+def test_a_switch_away_from_a_wider_library_keeps_its_slots(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A review's case: a scene served by a wider library (4 cylinder slots) switched to a
+    partition the library cannot take; the switched generator was built with the scene's own
+    slots and p, cut to that layout, lost the sphere. It is built with the library's slots."""
+    from mmplan.planners.extended_jacobian.criterion import Partition
+    from mmplan.scene.cylinder import Cylinder
+
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    ej_cache.clear()
+    base = mmplan.load_scenario("youbot3r-obstacles-torque").build()
+    obstacles, ground = base.scene.obstacles, base.scene.ground
+    third = Cylinder((3.0, 0.5, 0.0), 0.2, 0.3, 0.35)
+    ExtendedJacobian().plan(dataclasses.replace(base, scene=Scene((*obstacles, third), ground)))
+    ej_cache.clear()
+    prep = ExtendedJacobian()._prepare(base)
+    wide = prep.fns.layout.slots
+    assert sum(k for _, k in wide) == 6  # the wider library: 4 cylinders, 2 spheres
+    other = Partition((0, 3, 4, 5, 6, 7), (1, 2))  # not in the parametric family: built in
+    assert not prep.fns.layout.supports(other)
+    switched = prep.switch.build(other)
+    # the same slots in the same order: retarget keeps every obstacle at its offset
+    assert switched.layout.slots == wide
+    assert switched.layout.slot_offsets() == prep.fns.layout.slot_offsets()

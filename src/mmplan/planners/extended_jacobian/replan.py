@@ -28,8 +28,16 @@ torque over by 7.7 N m). A control loop follows its first samples and re-plans
 
 A goal inside an obstacle (an obstacle passing over it) is no error here: the re-plan holds
 the given state (one sample, status ``infeasible``, the message says which obstacle), and a
-later re-plan, with the obstacle gone, moves on. A state of the wrong size or not finite is an
-``InputError``.
+later re-plan, with the obstacle gone, moves on (the example holds a cycle and re-plans). A
+state of the wrong size or not finite, a rate outside [0, 1] (or 0 for a moving robot), a
+horizon that is not a finite positive time, a goal that is not 3 finite numbers and more
+obstacles of a shape type than the replanner's slots are ``InputError``s.
+
+Which rate: any w the limits admit at the start makes the re-plan start at dq (dq / w x w);
+the rate sets the generator's path speed q' = dq / w, which the time scaling can follow from
+w only when it is the path speed the robot is on: the rate of the plan it follows (a re-plan's
+``u`` column; a plan's ``u`` in time mode, its ``w`` column in feedback mode). A small rate
+magnifies an error in dq by 1 / w.
 """
 
 from __future__ import annotations
@@ -68,6 +76,8 @@ from mmplan.trajectory import Status
 HORIZON = 3.0
 #: A time rate at or below this is the robot at rest (its path velocity dq / w undefined).
 RATE_AT_REST = 1e-6
+#: Largest |dq| of a robot at rest [rad/s or m/s] (with a rate at rest).
+STILL = 1e-9
 
 
 class Replanner:
@@ -104,8 +114,10 @@ class Replanner:
 
     def _generator(self, partition: Partition, codegen: bool | None = None) -> GeneratorFunctions:
         s = self.settings
+        # after the first: the slots of the generator in use (a wider library's, cache.py)
+        slots = self.slots if not hasattr(self, "fns") else self.fns.layout.slots
         return ej_cache.generator(
-            self.robot, partition, self.slots, s.penalty_weight, s.varrho,
+            self.robot, partition, slots, s.penalty_weight, s.varrho,
             s.arm_gradient_weight, s.codegen if codegen is None else codegen, self.posture,
             self.heading, notify=cg.notice,  # a first compile says so, as plan() does
         ).fns  # fmt: skip
@@ -121,6 +133,14 @@ class Replanner:
             )
             for ob in scene.obstacles
         ]
+        exponents = [ob.superellipsoid().exponents for ob in scene.obstacles]
+        if not self.fns.layout.accepts(exponents):
+            # before the goal's check: a goal under one of too many obstacles is this error
+            kinds = slots_for(exponents, 1)
+            raise InputError(
+                "scene", f"{kinds} obstacles by shape type, slots {self.fns.layout.slots}: "
+                "make the Replanner with more spare slots",
+            )  # fmt: skip
         obstacles = ej_checks.fit_influence(obstacles, goal)
         ground = getattr(scene, "ground", None)
         floor = None
@@ -160,11 +180,23 @@ class Replanner:
         qv, dqv = self._state(q, "q"), self._state(dq, "dq")
         if not (np.isfinite(rate) and 0.0 <= rate <= 1.0):
             raise InputError("rate", f"need 0 <= rate <= 1, got {rate}")
+        if not (np.isfinite(horizon) and horizon > 0.0):
+            raise InputError("horizon", f"need a finite time > 0 s, got {horizon}")
+        target = self.goal if goal is None else np.asarray(goal, dtype=float)
+        if target.shape != (3,) or not np.all(np.isfinite(target)):
+            raise InputError("goal", f"need 3 finite numbers, got shape {target.shape}")
         scaled = limits and self.limited
         path_dq = dqv  # q' of the path: dq / w (w = 0: at rest)
-        if scaled:
-            path_dq = dqv / rate if rate > RATE_AT_REST else np.zeros_like(dqv)
-        target = self.goal if goal is None else np.asarray(goal, dtype=float)
+        if scaled and rate <= RATE_AT_REST:
+            fastest = float(np.max(np.abs(dqv), initial=0.0))
+            if fastest > STILL:
+                raise InputError(
+                    "rate", f"{rate} with a moving robot (|dq| up to {fastest:.3g}): give the "
+                    "rate it moves at",
+                )  # fmt: skip
+            path_dq = np.zeros_like(dqv)
+        elif scaled:
+            path_dq = dqv / rate
         try:
             p, part = self.params(qv, scene, target)
         except InputError as err:
@@ -180,8 +212,10 @@ class Replanner:
 
         switch = PartitionSwitch(self.robot, build, [part], opt.switch_cond)
         free = rollout(self.fns, self.robot.pfaffian, self.winv, qv, p, opt, switch, dq0=path_dq)
-        if not scaled or len(free.t) < 2:
+        if not scaled:
             return free
+        if len(free.t) < 2:  # no path to scale: the state as it is
+            return dataclasses.replace(free, dq=dqv[None, :], u=np.full(1, rate))
         start = rate if rate > RATE_AT_REST else None  # at rest: as a plan starts
         return scale_path(free, self.fns, self.limits, time_mode=True, start_rate=start)
 
@@ -192,7 +226,8 @@ class Replanner:
         return v
 
     def _hold(self, q: Array, dq: Array, goal: Array, message: str) -> RolloutResult:
-        """One sample: the state, with status infeasible and ``message``."""
+        """One sample: the state (dq as given; ddq, tau and u zero: a state, not a command),
+        with status infeasible and ``message``."""
         n, a = self.robot.n, len(self.robot.actuators)
         one = np.zeros((1, n))
         return RolloutResult(

@@ -19,14 +19,15 @@ generator path under efforts and rates together (:func:`rollout_time_scaled`); f
 keeps its virtual control and re-times the path it produced (:func:`retime`, the
 smooth torque start kept, w in the extra column ``w``).
 
-Start rate. Both paths start at rest (q' = 0), so w_0 does not change dq_0 = 0. Without rate
-limits time mode starts at w_0 = 0 (gravity only, like u0 = 0; the reproduction of
+Start rate. Both paths start at rest (q' = 0), so w_0 does not change dq_0 = 0 (a re-plan from a
+moving robot starts at the robot's rate instead: :func:`scale_path`'s ``start_rate``). Without
+rate limits time mode starts at w_0 = 0 (gravity only, like u0 = 0; the reproduction of
 [PajakPajak] uses it). Then sigma grows like t^2 on the first interval and q like t^4: a motion
 its two end samples represent badly (the trapezoid of dq misses q by a quarter of dq_1 per
 second, 1.7 % of the peak wheel rate with the youBot's rate limits, above the checker's 1 %).
 With rate limits (and after feedback mode) the scaling therefore starts at the largest
-admissible w_0 (efforts within the zone at t = 0): still at rest, and a path that no limit
-binds keeps the generator's timing exactly.
+admissible w_0 (efforts within the zone at t = 0): still at rest, and a path that no limit binds
+keeps the generator's timing exactly.
 """
 
 from __future__ import annotations
@@ -88,6 +89,9 @@ def _effort_split(path: RolloutResult, fns: GeneratorFunctions) -> tuple[Array, 
 DQ_STEP_TOL = 0.005
 #: Re-timings with capped steps before the plan is returned as it is.
 MAX_CONSISTENCY_ROUNDS = 8
+#: The checker's dq-consistency tolerance over ``DQ_STEP_TOL``: a residual ratio above this
+#: fails the check (the planner then refines its step, planner.py).
+CHECK_RATIO = 2.0
 
 
 def step_residuals(t: Array, q: Array, dq: Array) -> Array:
@@ -123,6 +127,7 @@ def _retime_consistent(
     N = len(path.t)
     cap = np.full(N, np.inf)
     rounds = 0
+    last: tuple[Retimed, int, float] | None = None
     while True:
         # x / cap <= 1 where capped; elsewhere x <= 1e9 (no bound: an all-zero row makes the
         # TOPP's controllable sets empty, measured)
@@ -134,13 +139,20 @@ def _retime_consistent(
             x_start=x_start,
         )  # fmt: skip
         sc = timed.scaling
+        if not sc.feasible and last is not None and x_start is not None and x_start > 0.0:
+            # a moving start (a re-plan): the caps took x_start out of the controllable set;
+            # the last round that kept it (measured: dropping x_start instead stepped the
+            # start velocity, w 0.35 -> 0.06, and once upwards)
+            return last
         if not sc.feasible or N < 2:
             return timed, rounds, 0.0
         r = step_residuals(sc.t, path.q, timed.dq)
         target = DQ_STEP_TOL * max(float(np.max(np.abs(timed.dq))), 1e-3)
         over = np.flatnonzero(r > target)
+        ratio = float(np.max(r[over]) / target) if over.size else 0.0
         if not over.size or rounds >= MAX_CONSISTENCY_ROUNDS:
-            return timed, rounds, float(np.max(r[over]) / target) if over.size else 0.0
+            return timed, rounds, ratio
+        last = (timed, rounds, ratio)
         rounds += 1
         factor = (target / r[over]) ** 2 * 0.9
         for ends in (over, over + 1):
@@ -176,7 +188,8 @@ def scale_path(
     if start_rate is not None:
         start = start_rate**2
     timed, consistency_rounds, residual = _retime_consistent(path, opt, rows, x_start=start)
-    if moving and not timed.scaling.feasible:
+    stepped = moving and not timed.scaling.feasible
+    if stepped:
         timed, consistency_rounds, residual = _retime_consistent(path, opt, rows, x_start=None)
     sc = timed.scaling
     info = dict(path.info)
@@ -215,6 +228,11 @@ def scale_path(
         status, message = path.outcome
     if status is Status.REACHED:
         message = f"goal reached at t = {sc.t[-1]:.3f} s (generator path {path.t[-1]:.3f} s)"
+    if stepped:
+        message += (
+            f"; starts at the time rate {np.sqrt(sc.x[0]):.3g}, not the robot's {start_rate:.3g}"
+            " (no rate near it holds the limits on this path: a step in the velocity)"
+        )
         if path.status is Status.INFEASIBLE:
             message += "; the virtual control alone left the torque limits, the re-timing kept them"
     if over > 1e-9:
