@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mmplan.scene import parametric
 from mmplan.scene.fields import (
     Array,
     Vec3,
@@ -22,7 +23,7 @@ from mmplan.scene.fields import (
     to_local,
     vector,
 )
-from mmplan.scene.obstacle import Obstacle, Solid, excess_distance_sym, register_shape
+from mmplan.scene.obstacle import Obstacle, Solid, register_shape
 from mmplan.scene.smooth_model import SuperellipsoidModel
 
 BOX_EXPONENTS = (0.1, 0.1)  # planner model exponents (e1, e2)
@@ -73,11 +74,7 @@ class Box(Obstacle):
 
         Excess e = |p'| - half (local frame, componentwise): d = |max(e, 0)| + min(max_i e_i, 0).
         """
-        half = np.asarray(self.half_extents, dtype=float)
-        cy, sy = np.cos(self.yaw), np.sin(self.yaw)
-        d = p - ca.DM(np.asarray(self.center, dtype=float))
-        local = ca.vertcat(cy * d[0] + sy * d[1], -sy * d[0] + cy * d[1], d[2])
-        return excess_distance_sym([ca.fabs(local[i]) - half[i] for i in range(3)])
+        return parametric.distance_sym("box", p, ca.DM(parametric.geometry(self, "box")))
 
     def enlarged(self, eps: float) -> Box:
         """Each half edge grown by ``eps`` [m] (a larger box, corners stay sharp)."""

@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mmplan.scene import parametric
 from mmplan.scene.fields import (
     Array,
     Vec3,
@@ -25,8 +26,6 @@ from mmplan.scene.fields import (
 from mmplan.scene.obstacle import (
     Obstacle,
     Solid,
-    excess_distance_sym,
-    norm_sym,
     register_shape,
 )
 from mmplan.scene.smooth_model import SuperellipsoidModel
@@ -82,10 +81,7 @@ class Cylinder(Obstacle):
         Radial excess u = |p_xy - c_xy| - r and axial excess v = max(z_0 - z, z - z_1)
         (z_0, z_1 the caps): d = |(max(u, 0), max(v, 0))| + min(max(u, v), 0).
         """
-        base = np.asarray(self.base_center, dtype=float)
-        rho = norm_sym(p[:2] - ca.DM(base[:2]))
-        axial = ca.fmax(base[2] - p[2], p[2] - (base[2] + self.height))
-        return excess_distance_sym([rho - self.radius, axial])
+        return parametric.distance_sym("cylinder", p, ca.DM(parametric.geometry(self, "cylinder")))
 
     def enlarged(self, eps: float) -> Cylinder:
         """Radius and half height grown by ``eps`` [m] (centre kept)."""

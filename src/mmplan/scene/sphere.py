@@ -9,6 +9,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mmplan.scene import parametric
 from mmplan.scene.fields import (
     Array,
     Vec3,
@@ -18,7 +19,7 @@ from mmplan.scene.fields import (
     positive,
     vector,
 )
-from mmplan.scene.obstacle import Obstacle, Solid, norm_sym, register_shape
+from mmplan.scene.obstacle import Obstacle, Solid, register_shape
 from mmplan.scene.smooth_model import SuperellipsoidModel
 
 
@@ -52,7 +53,7 @@ class Sphere(Obstacle):
 
     def signed_distance_sym(self, p: ca.SX) -> ca.SX:
         """Symbolic signed distance |p - c| - r of a point p (3, 1) [m] (exact)."""
-        return norm_sym(p - ca.DM(np.asarray(self.center, dtype=float))) - self.radius
+        return parametric.distance_sym("sphere", p, ca.DM(parametric.geometry(self, "sphere")))
 
     def enlarged(self, eps: float) -> Sphere:
         """Radius grown by ``eps`` [m]."""

@@ -41,12 +41,13 @@ from mmplan.planners.tracking.potentials import (
 )
 from mmplan.planners.tracking.rollout import compile_step
 from mmplan.planners.tracking.settings import ImpedanceSettings
+from mmplan.planners.tracking.slots import Slots, baked
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
 
 
-def obstacle_force_magnitude(d: ca.SX, d_min: float, d_max: float, b_obs: float) -> ca.SX:
+def obstacle_force_magnitude(d: ca.SX, d_min: float, d_max: float | ca.SX, b_obs: float) -> ca.SX:
     """|F_obs|(d) of [AbdessemedDjebrani] s.3.3 (Borenstein & Koren),
     saturated below d_min, 0 beyond d_max."""
     a_obs = b_obs * (d_max - d_min) ** 2
@@ -68,7 +69,7 @@ class VirtualImpedance:
 
     def __init__(
         self, robot: Robot, obstacles: tuple[Obstacle, ...], settings: ImpedanceSettings,
-        ground: float | None = None,
+        ground: float | None = None, slots: Slots | None = None,
     ) -> None:
         if robot.h != 0 or robot.n_platform != 3 or robot.n < 6:
             raise InputError(
@@ -82,23 +83,33 @@ class VirtualImpedance:
         q, n = s.q, robot.n
         delta = ca.SX.sym("delta", 2)
         ref = ca.SX.sym("ref", 12)
+        # the obstacles: numbers in the step's input (slots) or built in
+        p_obs = ca.SX.sym("obstacles", slots.size if slots is not None else 0)
+        terms = slots.terms(p_obs) if slots is not None else baked(obstacles)
+        self.params = (
+            slots.pack(obstacles, settings.d_max) if slots is not None else np.zeros(0)
+        )  # fmt: skip
         # Obstacle force on the platform centre (floor level), eqs. (39) and section 3.3.
         p = ca.SX.sym("p", 3)
         F = ca.SX.zeros(2)
         d_min = ca.SX(1e3)
-        for obstacle in obstacles:
-            d_max = obstacle.influence if obstacle.influence is not None else settings.d_max
-            d = obstacle.horizontal_distance_sym(p)
+        for term in terms:
+            d_max = term.influence if term.influence is not None else settings.d_max
+            d = term.horizontal(p)
             grad = ca.gradient(d, p)[:2]
             normal = grad / ca.sqrt(ca.sumsqr(grad) + 1e-18)
-            mag = obstacle_force_magnitude(
-                d, settings.d_min, max(d_max, settings.d_min + 1e-9), settings.b_obs
+            reach = (
+                max(d_max, settings.d_min + 1e-9)
+                if isinstance(d_max, float | int)
+                else ca.fmax(d_max, settings.d_min + 1e-9)
             )
-            F += mag * normal
+            F += obstacle_force_magnitude(d, settings.d_min, reach, settings.b_obs) * normal
             d_min = ca.fmin(d_min, d)
-        at_platform = ca.Function("f", [p], [F, d_min])
-        F_q, d_q = at_platform(ca.vertcat(q[0], q[1], 0))
-        self.force = ca.Function("impedance_force", [q], [F_q, d_q])
+        at_platform = ca.Function("f", [p, p_obs], [F, d_min])
+        F_q, d_q = at_platform(ca.vertcat(q[0], q[1], 0), p_obs)
+        fixed = ca.DM(self.params)  # the functions of q alone see this scene's numbers
+        F_fixed, d_fixed = (ca.substitute(e, p_obs, fixed) for e in (F_q, d_q))
+        self.force = ca.Function("impedance_force", [q], [F_fixed, d_fixed])
         # Impedance filter B_d d' + K_d d = F_ext (eq. (41) with Z_d = B_d s + K_d).
         ddelta = (F_q - settings.stiffness * delta) / settings.damping
         shift = ca.vertcat(ca.SX.zeros(3), delta, 0)
@@ -118,11 +129,11 @@ class VirtualImpedance:
         err = ca.norm_2(ref[0:3] - s.ee_position)
         self.task_matrix = ca.Function("task_matrix", [q], [J_t])
         state = ca.vertcat(q, delta)
-        pairs = sphere_distances(s.collision_points, robot.collision_radii, obstacles)
+        pairs = sphere_distances(s.collision_points, robot.collision_radii, terms)
         floor = floor_distances(robot, ground)  # checked (stop rule), not avoided: no null space
         aux = ca.vertcat(s.ee_position, err, sigma, min_clearance_sym(pairs, floor))
         self.step = compile_step(
-            "impedance_step", state, ref, ca.vertcat(u, ddelta), aux, n, settings.dt
+            "impedance_step", state, ref, ca.vertcat(u, ddelta), aux, n, settings.dt, p_obs
         )
         self.settings = settings
 

@@ -14,10 +14,12 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.planners.base import Planner, register
+from mmplan.planners.tracking.compiled import native
 from mmplan.planners.tracking.impedance import VirtualImpedance, platform_distances
 from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
 from mmplan.planners.tracking.result import track
 from mmplan.planners.tracking.settings import ImpedanceSettings, PseudoinverseSettings
+from mmplan.planners.tracking.slots import Slots
 from mmplan.problem import Problem, Progress
 from mmplan.task import TrackPath
 from mmplan.trajectory import Solution
@@ -35,8 +37,10 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start``."""
-        model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings,
-                                      problem.scene.ground)
+        scene = problem.scene
+        slots = Slots.of(scene.obstacles)
+        model = WeightedPseudoinverse(problem.robot, scene.obstacles, settings, scene.ground, slots)
+        step, backend = native(model.step, problem.robot, settings, slots, scene.ground)
 
         def reference(t: float) -> Array:
             return np.concatenate([task.position(t), task.velocity(t)])
@@ -45,12 +49,13 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
             problem,
             settings,
             task,
-            model.step,
+            step,
             np.asarray(problem.start, dtype=float),
             reference,
             model.smallest_singular_value,
             progress,
-            lambda run: {"weights": [float(v) for v in model.w]},
+            lambda run: {"weights": [float(v) for v in model.w], "backend": backend},
+            model.params,
         )
 
 
@@ -66,19 +71,24 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start`` (plus the two impedance filter states)."""
-        model = VirtualImpedance(problem.robot, tuple(problem.scene.obstacles), settings,
-                                 problem.scene.ground)
+        scene = problem.scene
+        slots = Slots.of(scene.obstacles)
+        model = VirtualImpedance(problem.robot, tuple(scene.obstacles), settings, scene.ground,
+                                 slots)  # fmt: skip
+        step, backend = native(model.step, problem.robot, settings, slots, scene.ground)
         state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
         return track(
             problem,
             settings,
             task,
-            model.step,
+            step,
             state0,
             lambda t: model.reference(task, t),
             model.smallest_singular_value,
             progress,
-            lambda run: (
-                platform_distances(model, task, run.t, run.q) if problem.scene.obstacles else {}
-            ),
+            lambda run: {
+                **(platform_distances(model, task, run.t, run.q) if scene.obstacles else {}),
+                "backend": backend,
+            },
+            model.params,
         )

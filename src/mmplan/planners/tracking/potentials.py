@@ -17,9 +17,9 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.planners.tracking.slots import Term
 from mmplan.robot.ground import floor_clearance_sym
 from mmplan.robot.robot import Robot
-from mmplan.scene.obstacle import Obstacle
 
 
 def joint_limit_potential(
@@ -45,7 +45,7 @@ def joint_limit_potential(
     return 0.5 * ca.sumsqr(qa - ca.DM(mid))
 
 
-def barrier_term(d: ca.SX, k1: float, d0: float, d_floor: float) -> ca.SX:
+def barrier_term(d: ca.SX, k1: float, d0: float | ca.SX, d_floor: float) -> ca.SX:
     r"""One term of the obstacle potential, [AbdessemedDjebrani] eq. (32), with a linear floor.
 
     .. math::
@@ -69,24 +69,25 @@ def barrier_term(d: ca.SX, k1: float, d0: float, d_floor: float) -> ca.SX:
 
 
 def sphere_distances(
-    points: ca.SX, radii: NDArray[np.float64], obstacles: Sequence[Obstacle]
-) -> list[tuple[Obstacle, ca.SX]]:
+    points: ca.SX, radii: NDArray[np.float64], terms: Sequence[Term]
+) -> list[tuple[Term, ca.SX]]:
     """d_ij = dist(p_i, O_j) - r_i for every collision sphere i and obstacle j.
 
-    dist is each obstacle's own symbolic signed distance
-    (:meth:`~mmplan.scene.obstacle.Obstacle.signed_distance_sym`).
+    dist is each obstacle's own symbolic signed distance (:class:`~.slots.Term`: the
+    obstacle's :meth:`~mmplan.scene.obstacle.Obstacle.signed_distance_sym`, or its parametric
+    form of :mod:`mmplan.scene.parametric`).
 
     Args:
         points: Symbolic sphere centres (3, P) in world coordinates.
         radii: Sphere radii (P,) [m].
-        obstacles: Scene obstacles.
+        terms: The obstacles (:func:`~.slots.baked` or :meth:`~.slots.Slots.terms`).
 
     Returns:
-        (obstacle, d_ij) pairs, obstacle-major.
+        (term, d_ij) pairs, obstacle-major.
     """
     return [
-        (obstacle, obstacle.signed_distance_sym(points[:, i]) - float(radii[i]))
-        for obstacle in obstacles
+        (term, term.distance(points[:, i]) - float(radii[i]))
+        for term in terms
         for i in range(points.shape[1])
     ]
 
@@ -100,9 +101,7 @@ def floor_distances(robot: Robot, ground: float | None) -> list[ca.SX]:
     return [clearance[i] for i in range(clearance.shape[0])]
 
 
-def min_clearance_sym(
-    pairs: Sequence[tuple[Obstacle, ca.SX]], floor: Sequence[ca.SX] = ()
-) -> ca.SX:
+def min_clearance_sym(pairs: Sequence[tuple[Term, ca.SX]], floor: Sequence[ca.SX] = ()) -> ca.SX:
     """Smallest d_ij of :func:`sphere_distances` and of the ``floor`` distances
     (:func:`floor_distances`); 1e3 when there are none."""
     d_min = ca.SX(1e3)
@@ -114,7 +113,7 @@ def min_clearance_sym(
 def obstacle_potential(
     points: ca.SX,
     radii: NDArray[np.float64],
-    obstacles: Sequence[Obstacle],
+    terms: Sequence[Term],
     k1: float,
     d0: float,
     d_floor: float,
@@ -133,7 +132,7 @@ def obstacle_potential(
     Args:
         points: Symbolic sphere centres (3, P) in world coordinates.
         radii: Sphere radii (P,) [m].
-        obstacles: Scene obstacles.
+        terms: The obstacles (:func:`~.slots.baked` or :meth:`~.slots.Slots.terms`).
         k1, d0, d_floor: See :func:`barrier_term`.
         floor: Heights of the ground spheres above the floor (:func:`floor_distances`).
 
@@ -141,10 +140,10 @@ def obstacle_potential(
         (V_2, d_min): the potential and the smallest distance d_ij or d_i (the planner's
         clearance; 1e3 when there are no obstacles and no floor).
     """
-    pairs = sphere_distances(points, radii, obstacles)
+    pairs = sphere_distances(points, radii, terms)
     total = ca.SX(0)
-    for obstacle, d in pairs:
-        influence = obstacle.influence if obstacle.influence is not None else d0
+    for term, d in pairs:
+        influence = term.influence if term.influence is not None else d0
         total += barrier_term(d, k1, influence, d_floor)
     for d in floor:
         total += barrier_term(d, k1, d0, d_floor)

@@ -39,6 +39,7 @@ from mmplan.planners.tracking.potentials import (
 )
 from mmplan.planners.tracking.rollout import compile_step
 from mmplan.planners.tracking.settings import PseudoinverseSettings
+from mmplan.planners.tracking.slots import Slots, baked
 from mmplan.robot.robot import Robot
 from mmplan.scene.obstacle import Obstacle
 
@@ -83,11 +84,17 @@ class WeightedPseudoinverse:
 
     def __init__(
         self, robot: Robot, obstacles: Sequence[Obstacle], settings: PseudoinverseSettings,
-        ground: float | None = None,
+        ground: float | None = None, slots: Slots | None = None,
     ) -> None:
         self.robot = robot
         self.settings = settings
         self.w = coordinate_weights(robot, settings.platform_range)
+        # the obstacles: numbers in the step's input (slots) or built in
+        p_obs = ca.SX.sym("obstacles", slots.size if slots is not None else 0)
+        terms = slots.terms(p_obs) if slots is not None else baked(obstacles)
+        self.params = (
+            slots.pack(obstacles, settings.d0) if slots is not None else np.zeros(0)
+        )  # fmt: skip
         s = robot.symbols
         q, h = s.q, robot.h
         J = ca.vertcat(s.pfaffian, s.jacobian)  # (h + 3, n)
@@ -96,7 +103,7 @@ class WeightedPseudoinverse:
         V2, d_min = obstacle_potential(
             s.collision_points,
             robot.collision_radii,
-            obstacles,
+            terms,
             settings.k1,
             settings.d0,
             settings.d_floor,
@@ -110,8 +117,10 @@ class WeightedPseudoinverse:
         H = w0_inv - w_inv @ J.T @ G_inv @ J @ w0_inv
         self.task_jacobian = ca.Function("task_jacobian", [q], [J])
         self.null_projector = ca.Function("null_projector", [q], [H])
-        self.null_vector = ca.Function("null_vector", [q], [z])
-        self.potentials = ca.Function("potentials", [q], [V1, V2, d_min])
+        fixed = ca.DM(self.params)  # the functions of q alone see this scene's numbers
+        z_q, V2_q, d_q = (ca.substitute(e, p_obs, fixed) for e in (z, V2, d_min))
+        self.null_vector = ca.Function("null_vector", [q], [z_q])
+        self.potentials = ca.Function("potentials", [q], [V1, V2_q, d_q])
 
         xd, dxd = ca.SX.sym("X_d", 3), ca.SX.sym("dX_d", 3)
         err = xd - s.ee_position
@@ -121,8 +130,12 @@ class WeightedPseudoinverse:
         # a factor sqrt(h + 3) of the exact value.
         sigma = 1.0 / ca.sqrt(ca.trace(G_inv))
         aux = ca.vertcat(s.ee_position, ca.norm_2(err), sigma, d_min)
-        self.velocity = ca.Function("pinv_velocity", [q, xd, dxd], [dq])
-        self.step = compile_step("pinv_step", q, ca.vertcat(xd, dxd), dq, aux, robot.n, settings.dt)
+        self.velocity = ca.Function(
+            "pinv_velocity", [q, xd, dxd], [ca.substitute(dq, p_obs, fixed)]
+        )
+        self.step = compile_step(
+            "pinv_step", q, ca.vertcat(xd, dxd), dq, aux, robot.n, settings.dt, p_obs
+        )
 
     def svd_velocity(self, q: Array, xd: Array, dxd: Array) -> Array:
         """dq by [AbdessemedDjebrani] eq. (27) through the SVD of J W0^-1

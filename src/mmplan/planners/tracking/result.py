@@ -128,11 +128,13 @@ def track(
     exact_sigma: Callable[[Array], float],
     progress: Progress,
     info: Callable[[Rollout], Mapping[str, Any]] = lambda run: {},
+    params: Array | None = None,
 ) -> Solution:
     """Roll a compiled tracking step along ``task`` and finish the result.
 
     Shared by both trackers: the horizon is min(path duration, t_max) at ``settings.dt``;
-    ``info(run)`` adds method-specific numbers.
+    ``info(run)`` adds method-specific numbers; ``params``: the step's parameters (the
+    obstacles' numbers, :mod:`.slots`).
     """
     t_end = min(task.duration, settings.t_max)
     steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
@@ -146,6 +148,7 @@ def track(
         StopRules.of(settings),
         exact_sigma,
         progress,
+        params,
     )
     return finish(
         run,

@@ -133,8 +133,9 @@ def compile_step(
     aux: ca.SX,
     n: int,
     dt: float,
+    params: ca.SX | None = None,
 ) -> ca.Function:
-    """One Heun step of ds/dt = rate(s, r) as a single CasADi function (see module docstring).
+    """One Heun step of ds/dt = rate(s, r, p) as a single CasADi function (see module docstring).
 
     Args:
         name: Function name.
@@ -144,14 +145,18 @@ def compile_step(
         aux: [ee (3); err; sigma; clearance] as an expression of (state, ref) (6,).
         n: Number of coordinates (dq = rate[:n]).
         dt: Step [s].
+        params: Symbolic parameters p the expressions depend on (the obstacles' numbers,
+            :mod:`.slots`), last in the input; None: none.
     """
-    f = ca.Function(f"{name}_rate", [state, ref], [rate, aux])
+    p = params if params is not None else ca.SX.sym("p", 0)
+    f = ca.Function(f"{name}_rate", [state, ref, p], [rate, aux])
     s = ca.SX.sym("s", state.shape[0])
     r0, r1 = ca.SX.sym("r0", ref.shape[0]), ca.SX.sym("r1", ref.shape[0])
-    k1, aux1 = f(s, r0)
-    k2, _ = f(s + dt * k1, r1)
+    pp = ca.SX.sym("p", p.shape[0])
+    k1, aux1 = f(s, r0, pp)
+    k2, _ = f(s + dt * k1, r1, pp)
     out = ca.vertcat(s + 0.5 * dt * (k1 + k2), k1[:n], aux1)
-    return ca.Function(name, [ca.vertcat(s, r0, r1)], [out])
+    return ca.Function(name, [ca.vertcat(s, r0, r1, pp)], [out])
 
 
 class BufferedStep:
@@ -194,6 +199,7 @@ def rollout(
     rules: StopRules,
     exact_sigma: Callable[[Array], float],
     progress: Progress = None,
+    params: Array | None = None,
 ) -> Rollout:
     """Run ``steps + 1`` control steps from ``state0`` (samples at t = k dt, k = 0..steps).
 
@@ -208,8 +214,10 @@ def rollout(
         exact_sigma: q -> exact smallest singular value, called only when the step's lower
             bound falls below the threshold.
         progress: Optional callback with the fraction done.
+        params: The step's parameters p (last in its input; :func:`compile_step`).
     """
     n, ns = robot.n, len(state0)
+    tail = np.zeros(0) if params is None else np.asarray(params, dtype=float)
     q = np.zeros((steps + 1, n))
     dq = np.zeros((steps + 1, n))
     ee = np.zeros((steps + 1, 3))
@@ -225,7 +233,7 @@ def rollout(
     for k in range(steps + 1):
         t = k * dt
         r_now, r_next = r_next, reference((k + 1) * dt)
-        out = call(np.concatenate([state, r_now, r_next])).copy()
+        out = call(np.concatenate([state, r_now, r_next, tail])).copy()
         if not np.isfinite(out).all():
             status, message = Status.DIVERGED, f"non-finite velocity at t = {t:.3f} s"
             break

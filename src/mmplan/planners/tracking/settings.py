@@ -40,6 +40,11 @@ class TrackingSettings(PlannerSettings):
     stop_on_collision: bool = Field(
         default=True, description="stop (stalled) when a collision sphere touches an obstacle"
     )
+    codegen: bool | None = Field(
+        default=None,
+        description="compile the control step to C (null: when a compiler is present; cached "
+        "per robot model, settings and obstacle kinds); false: CasADi's virtual machine",
+    )
 
 
 class PseudoinverseSettings(TrackingSettings):
