@@ -99,3 +99,42 @@ def test_without_a_compiler_the_step_runs_on_the_virtual_machine_and_says_so(
     sol = _plan("diffdrive3-track")
     assert sol.info["backend"] == "vm" and sol.status.value == "reached"
     assert "the tracker's step runs on CasADi's virtual machine" in capsys.readouterr().err
+
+
+@needs_cc
+def test_a_compiled_tracker_is_loaded_without_building_its_model(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A later plan finds the library by the description: no symbolic model is built (the
+    audit: every process built it again); the functions a loaded model lacks are built when
+    first asked for."""
+    from mmplan.planners.tracking.impedance import VirtualImpedance
+    from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
+
+    _plan("diffdrive3-track"), _plan("omni3-impedance")  # the libraries on disk
+    builds: list[str] = []
+    for cls in (WeightedPseudoinverse, VirtualImpedance):
+
+        def counted(self: Any, *args: Any, _build: Any = cls._build, _name: str = cls.__name__
+                    ) -> Any:  # fmt: skip
+            builds.append(_name)
+            return _build(self, *args)
+
+        monkeypatch.setattr(cls, "_build", counted)
+    for name in ("diffdrive3-track", "omni3-impedance"):
+        sol = _plan(name)
+        assert sol.info["backend"] == "c" and sol.status.value == "reached"
+    assert builds == []
+    problem = mmplan.load_scenario("diffdrive3-track").build()
+    slots = Slots.of(problem.scene.obstacles)
+    settings = problem.settings
+    from mmplan.planners.tracking import compiled
+
+    loaded = compiled.functions(("pinv_step", "task_jacobian"), problem.robot, settings, slots,
+                                problem.scene.ground, lambda: [])  # fmt: skip
+    model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings,
+                                  problem.scene.ground, slots, loaded)  # fmt: skip
+    q = np.asarray(problem.start, dtype=float)
+    assert builds == []
+    z = np.asarray(model.null_vector(q), dtype=float)  # built now, once
+    assert builds == ["WeightedPseudoinverse"] and z.shape == (problem.robot.n, 1)

@@ -3,15 +3,17 @@
 A step with the scene's obstacles as parameters (:mod:`.slots`) depends on the robot model,
 the settings that enter its expressions, the obstacle kinds with their slot counts, the floor
 and the code: that is the key of its library (:func:`disk_key`), so a moved, resized or new
-obstacle of the same kinds, or another path, runs the same library, and a later process finds
-it without generating the C source again (the model's expressions are still built: the
-tracker's other functions need them). A scene with a shape without a parametric form keeps
-its numbers built in and runs on CasADi's virtual machine (it would compile per scene).
+obstacle of the same kinds, or another path, runs the same library, and a later process loads
+it without building the tracker's symbolic model (the library also holds the functions the
+planner calls besides the step: the task matrix, the impedance force). A scene with a shape
+without a parametric form keeps its numbers built in and runs on CasADi's virtual machine (it
+would compile per scene).
 """
 
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +30,13 @@ NOT_IN_STEP = {"t_max", "min_singular_value", "max_error", "settle_time", "stop_
                "codegen", "method"}  # fmt: skip
 
 
-def disk_key(robot: Any, step: ca.Function, settings: Any, slots: Slots, ground: Any) -> str:
-    """What a compiled step depends on (module docstring)."""
+def disk_key(robot: Any, name: str, settings: Any, slots: Slots, ground: Any) -> str:
+    """What a compiled step ``name`` depends on (module docstring)."""
     here = Path(__file__).parent
     scene = Path(__file__).parents[2] / "scene"
     parts = [
         robot_fingerprint(robot),
-        step.name(),
+        name,
         settings.model_dump_json(exclude=NOT_IN_STEP),
         repr(slots.kinds),
         repr(ground),
@@ -44,18 +46,24 @@ def disk_key(robot: Any, step: ca.Function, settings: Any, slots: Slots, ground:
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
 
-def native(
-    step: ca.Function, robot: Any, settings: Any, slots: Slots | None, ground: Any
-) -> tuple[ca.Function, str]:
-    """The step compiled to C (cached) and ``"c"``; the step itself and ``"vm"`` with
+def functions(
+    names: Sequence[str],
+    robot: Any,
+    settings: Any,
+    slots: Slots | None,
+    ground: Any,
+    build: Callable[[], Sequence[ca.Function]],
+) -> list[ca.Function] | None:
+    """The functions ``names`` (the step first) from their compiled library, which ``build``
+    (the tracker's symbolic model) makes only when it is not on disk; None with
     ``codegen: false``, a scene without slots, no compiler (a notice) or a failed build."""
     if settings.codegen is False or slots is None:
-        return step, "vm"
+        return None
     if cg.compiler() is None:
         cg.notice(f"{cg.no_compiler()}: the tracker's step runs on CasADi's virtual machine")
-        return step, "vm"
-    key = disk_key(robot, step, settings, slots, ground)
-    library = cg.compile_library([step], f"track_{step.name()}", FLAGS, cg.notice, key=key)
-    if library is None:
-        return step, "vm"
-    return cg.load([step.name()], library)[0], "c"
+        return None
+    key = disk_key(robot, names[0], settings, slots, ground)
+    library = cg.compile_library(
+        lambda: list(build()), f"track_{names[0]}", FLAGS, cg.notice, key=key
+    )  # fmt: skip
+    return None if library is None else cg.load(names, library)

@@ -29,6 +29,8 @@ switches the impedance off.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import casadi as ca
 import numpy as np
 
@@ -70,6 +72,7 @@ class VirtualImpedance:
     def __init__(
         self, robot: Robot, obstacles: tuple[Obstacle, ...], settings: ImpedanceSettings,
         ground: float | None = None, slots: Slots | None = None,
+        loaded: Sequence[ca.Function] | None = None,
     ) -> None:
         if robot.h != 0 or robot.n_platform != 3 or robot.n < 6:
             raise InputError(
@@ -79,6 +82,26 @@ class VirtualImpedance:
                 f"platform {robot.platform_coordinates}",
             )
         self.robot = robot
+        self.settings = settings
+        self.params = (
+            slots.pack(obstacles, settings.d_max) if slots is not None else np.zeros(0)
+        )  # fmt: skip
+        if loaded is not None:  # the compiled functions (compiled.py): no model built
+            self.step, self.task_matrix, self.force_p = loaded
+        else:
+            self._build(obstacles, ground, slots)
+        q = ca.MX.sym("q", robot.n)  # the force of this scene's obstacles
+        F, d = self.force_p(q, ca.DM(self.params))
+        self.force = ca.Function("impedance_force", [q], [F, d])
+
+    def library_functions(self) -> list[ca.Function]:
+        """What the compiled library holds: the step, the task matrix and the force."""
+        return [self.step, self.task_matrix, self.force_p]
+
+    def _build(
+        self, obstacles: Sequence[Obstacle], ground: float | None, slots: Slots | None
+    ) -> None:
+        robot, settings = self.robot, self.settings
         s = robot.symbols
         q, n = s.q, robot.n
         delta = ca.SX.sym("delta", 2)
@@ -86,9 +109,6 @@ class VirtualImpedance:
         # the obstacles: numbers in the step's input (slots) or built in
         p_obs = ca.SX.sym("obstacles", slots.size if slots is not None else 0)
         terms = slots.terms(p_obs) if slots is not None else baked(obstacles)
-        self.params = (
-            slots.pack(obstacles, settings.d_max) if slots is not None else np.zeros(0)
-        )  # fmt: skip
         # Obstacle force on the platform centre (floor level), eqs. (39) and section 3.3.
         p = ca.SX.sym("p", 3)
         F = ca.SX.zeros(2)
@@ -107,9 +127,7 @@ class VirtualImpedance:
             d_min = ca.fmin(d_min, d)
         at_platform = ca.Function("f", [p, p_obs], [F, d_min])
         F_q, d_q = at_platform(ca.vertcat(q[0], q[1], 0), p_obs)
-        fixed = ca.DM(self.params)  # the functions of q alone see this scene's numbers
-        F_fixed, d_fixed = (ca.substitute(e, p_obs, fixed) for e in (F_q, d_q))
-        self.force = ca.Function("impedance_force", [q], [F_fixed, d_fixed])
+        self.force_p = ca.Function("impedance_force_p", [q, p_obs], [F_q, d_q])
         # Impedance filter B_d d' + K_d d = F_ext (eq. (41) with Z_d = B_d s + K_d).
         ddelta = (F_q - settings.stiffness * delta) / settings.damping
         shift = ca.vertcat(ca.SX.zeros(3), delta, 0)
@@ -135,7 +153,6 @@ class VirtualImpedance:
         self.step = compile_step(
             "impedance_step", state, ref, ca.vertcat(u, ddelta), aux, n, settings.dt, p_obs
         )
-        self.settings = settings
 
     def reference(self, task: TrackPath, t: float) -> Array:
         """r(t) = [xi*(t); dxi*(t); xi_p*(t); dxi_p*(t)] (12,) (our reading of xi_p*)."""

@@ -14,7 +14,7 @@ import numpy as np
 
 from mmplan.arrays import Array
 from mmplan.planners.base import Planner, register
-from mmplan.planners.tracking.compiled import native
+from mmplan.planners.tracking import compiled
 from mmplan.planners.tracking.impedance import VirtualImpedance, platform_distances
 from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
 from mmplan.planners.tracking.result import track
@@ -37,10 +37,16 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start``."""
-        scene = problem.scene
+        robot, scene = problem.robot, problem.scene
         slots = Slots.of(scene.obstacles)
-        model = WeightedPseudoinverse(problem.robot, scene.obstacles, settings, scene.ground, slots)
-        step, backend = native(model.step, problem.robot, settings, slots, scene.ground)
+        obstacles, ground = scene.obstacles, scene.ground
+        loaded = compiled.functions(
+            ("pinv_step", "task_jacobian"), robot, settings, slots, ground,
+            lambda: WeightedPseudoinverse(robot, obstacles, settings, ground, slots)
+            .library_functions(),
+        )  # fmt: skip
+        model = WeightedPseudoinverse(robot, obstacles, settings, ground, slots, loaded)
+        step, backend = model.step, "vm" if loaded is None else "c"
 
         def reference(t: float) -> Array:
             return np.concatenate([task.position(t), task.velocity(t)])
@@ -71,11 +77,17 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start`` (plus the two impedance filter states)."""
-        scene = problem.scene
+        robot, scene = problem.robot, problem.scene
         slots = Slots.of(scene.obstacles)
-        model = VirtualImpedance(problem.robot, tuple(scene.obstacles), settings, scene.ground,
-                                 slots)  # fmt: skip
-        step, backend = native(model.step, problem.robot, settings, slots, scene.ground)
+        obstacles, ground = tuple(scene.obstacles), scene.ground
+        loaded = compiled.functions(
+            ("impedance_step", "task_matrix", "impedance_force_p"), robot, settings, slots,
+            ground,
+            lambda: VirtualImpedance(robot, obstacles, settings, ground, slots)
+            .library_functions(),
+        )  # fmt: skip
+        model = VirtualImpedance(robot, obstacles, settings, ground, slots, loaded)
+        step, backend = model.step, "vm" if loaded is None else "c"
         state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
         return track(
             problem,

@@ -26,6 +26,7 @@ the paper does not say which integrator it used.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -67,6 +68,10 @@ def coordinate_weights(robot: Robot, platform_range: Sequence[float] | None) -> 
     return np.asarray(b / b.max(), dtype=float)
 
 
+#: Attributes a loaded model builds on first use (the symbolic model's functions).
+LIBRARY_LAZY = ("null_projector", "null_vector", "potentials", "velocity")
+
+
 class WeightedPseudoinverse:
     """Compiled model of [AbdessemedDjebrani] eqs. (22)-(32) for one robot, scene and settings.
 
@@ -85,16 +90,38 @@ class WeightedPseudoinverse:
     def __init__(
         self, robot: Robot, obstacles: Sequence[Obstacle], settings: PseudoinverseSettings,
         ground: float | None = None, slots: Slots | None = None,
+        loaded: Sequence[ca.Function] | None = None,
     ) -> None:
         self.robot = robot
         self.settings = settings
         self.w = coordinate_weights(robot, settings.platform_range)
-        # the obstacles: numbers in the step's input (slots) or built in
-        p_obs = ca.SX.sym("obstacles", slots.size if slots is not None else 0)
-        terms = slots.terms(p_obs) if slots is not None else baked(obstacles)
         self.params = (
             slots.pack(obstacles, settings.d0) if slots is not None else np.zeros(0)
         )  # fmt: skip
+        self._scene = (obstacles, ground, slots)
+        if loaded is not None:  # the compiled step and Jacobian (compiled.py): no model built
+            self.step, self.task_jacobian = loaded
+        else:
+            self._build()
+
+    def __getattr__(self, name: str) -> Any:
+        """The symbolic functions of a loaded model, built when first asked for."""
+        if name in LIBRARY_LAZY and "_built" not in self.__dict__:
+            self._build()
+            return getattr(self, name)
+        raise AttributeError(name)
+
+    def library_functions(self) -> list[ca.Function]:
+        """What the compiled library holds: the step and the task Jacobian."""
+        return [self.step, self.task_jacobian]
+
+    def _build(self) -> None:
+        robot, settings = self.robot, self.settings
+        obstacles, ground, slots = self._scene
+        self._built = True
+        # the obstacles: numbers in the step's input (slots) or built in
+        p_obs = ca.SX.sym("obstacles", slots.size if slots is not None else 0)
+        terms = slots.terms(p_obs) if slots is not None else baked(obstacles)
         s = robot.symbols
         q, h = s.q, robot.h
         J = ca.vertcat(s.pfaffian, s.jacobian)  # (h + 3, n)
@@ -115,7 +142,8 @@ class WeightedPseudoinverse:
         G = J @ w_inv @ J.T  # (h + 3, h + 3)
         G_inv = ca.solve(G, ca.SX.eye(h + 3))
         H = w0_inv - w_inv @ J.T @ G_inv @ J @ w0_inv
-        self.task_jacobian = ca.Function("task_jacobian", [q], [J])
+        keep = self.__dict__.setdefault  # a loaded step and Jacobian stay the compiled ones
+        keep("task_jacobian", ca.Function("task_jacobian", [q], [J]))
         self.null_projector = ca.Function("null_projector", [q], [H])
         fixed = ca.DM(self.params)  # the functions of q alone see this scene's numbers
         z_q, V2_q, d_q = (ca.substitute(e, p_obs, fixed) for e in (z, V2, d_min))
@@ -133,8 +161,9 @@ class WeightedPseudoinverse:
         self.velocity = ca.Function(
             "pinv_velocity", [q, xd, dxd], [ca.substitute(dq, p_obs, fixed)]
         )
-        self.step = compile_step(
-            "pinv_step", q, ca.vertcat(xd, dxd), dq, aux, robot.n, settings.dt, p_obs
+        keep(
+            "step",
+            compile_step("pinv_step", q, ca.vertcat(xd, dxd), dq, aux, robot.n, settings.dt, p_obs),
         )
 
     def svd_velocity(self, q: Array, xd: Array, dxd: Array) -> Array:

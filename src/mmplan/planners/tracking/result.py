@@ -41,10 +41,14 @@ def clearance_series(robot: Robot, scene: Scene, q: Array) -> Array | None:
     """Exact clearance of the collision spheres at each sample (N,); None without obstacles."""
     if not scene.obstacles:
         return None
-    fn = robot.functions["collision_points"]
     P = len(robot.collision)
-    raw = np.asarray(fn.map(len(q))(q.T), dtype=float)  # (3, N P), one block of P per sample
-    pts = raw.reshape(3, len(q), P).transpose(1, 2, 0).reshape(-1, 3)  # (N P, 3)
+    natives = robot.compiled()
+    if natives is not None:  # the robot's compiled functions: no symbolic model built
+        pts = natives.many("collision_points", np.ascontiguousarray(q)).reshape(-1, 3)
+    else:
+        fn = robot.functions["collision_points"]
+        raw = np.asarray(fn.map(len(q))(q.T), dtype=float)  # (3, N P), a block of P a sample
+        pts = raw.reshape(3, len(q), P).transpose(1, 2, 0).reshape(-1, 3)  # (N P, 3)
     d = scene.distances(pts).min(axis=1).reshape(len(q), P) - robot.collision_radii[None, :]
     return np.asarray(d.min(axis=1), dtype=float)
 
