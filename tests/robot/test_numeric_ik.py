@@ -151,3 +151,30 @@ def test_reach_bounds_every_configuration(name: str) -> None:
     p, _ = ik.forward(ik.random_seeds(20_000, seed=2))
     far = float(np.linalg.norm(p[:, :2], axis=1).max())
     assert far <= ik.reach() <= 2 * far
+
+
+def test_a_compiled_ik_is_loaded_again_without_its_symbolic_build(
+    tmp_path: object, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The audit: every process built the arm's symbolic model again (and generated the C to
+    find the library by its source). Now the library's key is the model's description; the
+    loaded functions give the same numbers."""
+    from mmplan.compile import codegen
+
+    if codegen.compiler() is None:
+        pytest.skip("no C compiler")
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    robot = get_robot("base-6dof")
+    first = ArmIK(robot, "axis", axis=(0.0, 0.0, 1.0))
+    builds: list[int] = []
+    build = ArmIK._build
+    monkeypatch.setattr(ArmIK, "_build", lambda self: builds.append(1) or build(self))
+    again = ArmIK(robot, "axis", axis=(0.0, 0.0, 1.0))
+    assert builds == [] and again.backend == first.backend == "c"
+    other = ArmIK(robot, "full")
+    assert builds == [1] and other.backend == "c"
+    q = np.linspace(-0.4, 0.5, 2 * len(robot.arm_indices)).reshape(2, -1)
+    for got, want in zip(again.forward(q), first.forward(q), strict=True):
+        np.testing.assert_array_equal(got, want)
+    vm = ArmIK(robot, "axis", axis=(0.0, 0.0, 1.0), compiled=False)
+    np.testing.assert_allclose(again.manipulability(q), vm.manipulability(q), atol=1e-12)

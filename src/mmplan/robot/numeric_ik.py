@@ -30,6 +30,7 @@ Everything derives from the robot's own symbolic kinematics: no closed form, no 
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
@@ -38,6 +39,8 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array, BoolArray
+from mmplan.compile import codegen as cg
+from mmplan.compile.fingerprint import robot_fingerprint, source_fingerprint
 from mmplan.errors import InputError
 from mmplan.robot import dynamics
 from mmplan.robot.robot import Robot
@@ -82,8 +85,9 @@ class ArmIK:
             platform coordinates are the given base pose (wheel angles do not move the arm).
         orientation: ``"full"``, ``"axis"`` or ``"none"`` (module docstring).
         axis: The end-effector frame's axis whose direction ``"axis"`` controls.
-        compiled: Compile the residual to C (:func:`~mmplan.compile.codegen.compile_function`,
-            cached; about 5x faster on TIAGo); the CasADi virtual machine without a compiler.
+        compiled: Compile the residual and the pose to C (cached by the robot model, orientation
+            and axis: a later process builds no symbolic model; about 5x faster on TIAGo);
+            the CasADi virtual machine without a compiler (a notice).
 
     Raises:
         InputError: a platform without a planar pose (x, y, theta first), or a zero axis.
@@ -111,6 +115,34 @@ class ArmIK:
         lo = np.asarray(robot.limits.joint_min, dtype=float)
         hi = np.asarray(robot.limits.joint_max, dtype=float)
         self.lower, self.upper = lo, hi
+        self._maps: dict[int, ca.Function] = {}  # the residual mapped over batches, by size
+        self.backend = "vm"
+        library = self._library() if compiled else None
+        if library is not None:  # loaded without building the symbolic model
+            self._residual, self._pose = cg.load(["ik_residual", "ik_pose"], library)
+            self.backend = "c"
+        else:
+            self._residual, self._pose = self._build()
+        self.n_residual = int(self._residual.size1_out(0)) - 1
+
+    def _library(self) -> str | None:
+        """The compiled residual and pose (cached, keyed by the robot model, the orientation
+        mode, the axis and the code: a later process builds no symbolic model); None without
+        a compiler (a notice) or when the build fails."""
+        if cg.compiler() is None:
+            cg.notice(f"{cg.no_compiler()}: the arm IK runs on CasADi's virtual machine")
+            return None
+        parts = [
+            robot_fingerprint(self.robot),
+            repr((self.orientation, tuple(float(v) for v in self.axis))),
+            source_fingerprint([__file__, dynamics.__file__, cg.__file__]),
+        ]
+        key = hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
+        return cg.compile_library(lambda: list(self._build()), "ik", ("-O1",), key=key)
+
+    def _build(self) -> tuple[ca.Function, ca.Function]:
+        """The residual and pose functions from the robot's symbolic model."""
+        robot, orientation = self.robot, self.orientation
         s = robot.symbols
         qa = ca.SX.sym("qa", self.n_arm)
         full = ca.vertcat(ca.SX.zeros(robot.n_platform), qa)
@@ -129,19 +161,10 @@ class ArmIK:
         else:
             e_r, cos = ca.SX(0, 1), ca.SX(1)
         e = ca.vertcat(pd - p, e_r, cos)
-        self._residual = ca.Function(
-            "ik_residual", [qa, pd, ca.vec(Rd)], [e, ca.jacobian(e[:-1], qa)]
-        )
-        self.backend = "vm"
-        self._maps: dict[int, ca.Function] = {}  # the residual mapped over batches, by size
-        if compiled:
-            from mmplan.compile.codegen import compile_function
-
-            self._residual, self.backend = compile_function(self._residual, ("-O1",))
-        self.n_residual = int(e.shape[0]) - 1
+        residual = ca.Function("ik_residual", [qa, pd, ca.vec(Rd)], [e, ca.jacobian(e[:-1], qa)])
         J6 = ca.vertcat(ca.jacobian(p, qa), dynamics.angular_jacobian(R, qa))
         w = ca.sqrt(ca.fmax(ca.det(J6 @ J6.T), 0)) if self.n_arm >= 6 else ca.SX(0)
-        self._pose = ca.Function("ik_pose", [qa], [p, ca.vec(R), w])
+        return residual, ca.Function("ik_pose", [qa], [p, ca.vec(R), w])
 
     def forward(self, q_arm: Array) -> tuple[Array, Array]:
         """Position (N, 3) and rotation (N, 3, 3) of the end effector in the platform frame."""
