@@ -118,10 +118,14 @@ class ArmIK:
         self._maps: dict[int, ca.Function] = {}  # the residual mapped over batches, by size
         self.backend = "vm"
         library = self._library() if compiled else None
-        if library is not None:  # loaded without building the symbolic model
-            self._residual, self._pose = cg.load(["ik_residual", "ik_pose"], library)
-            self.backend = "c"
-        else:
+        try:
+            if library is not None:  # loaded without building the symbolic model
+                self._residual, self._pose = cg.load(["ik_residual", "ik_pose"], library)
+                self.backend = "c"
+        except RuntimeError:  # unreadable (another machine's, damaged): the VM, said once
+            cg.notice(f"{library} could not be loaded: the arm IK runs on CasADi's virtual "
+                      "machine")  # fmt: skip
+        if self.backend == "vm":
             self._residual, self._pose = self._build()
         self.n_residual = int(self._residual.size1_out(0)) - 1
 

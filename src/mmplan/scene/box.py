@@ -42,6 +42,8 @@ class Box(Obstacle):
     """
 
     shape: ClassVar[str] = "box"
+    #: Its parametric form (:mod:`mmplan.scene.parametric`); not inherited by subclasses.
+    parametric_kind: ClassVar[str] = "box"
     center: Vec3
     size: Vec3
     yaw: float = 0.0

@@ -46,6 +46,8 @@ class Cylinder(Obstacle):
     """
 
     shape: ClassVar[str] = "cylinder"
+    #: Its parametric form (:mod:`mmplan.scene.parametric`); not inherited by subclasses.
+    parametric_kind: ClassVar[str] = "cylinder"
     base_center: Vec3
     radius: float
     height: float

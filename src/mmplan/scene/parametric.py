@@ -13,6 +13,10 @@ Geometry vectors, per kind:
 * ``cylinder`` (vertical): base centre (3), radius, height;
 * ``box``: centre (3), half extents (3), cos and sin of the yaw.
 
+A planner's slot adds an active flag (:mod:`mmplan.planners.tracking.slots`): a parked slot's
+geometry is far away, but far is relative (a robot near it would feel it), so its terms are
+switched off by the flag, not by the distance alone.
+
 A superellipsoid (smooth model, exponents fixed per type) has no kind here: a scene with one
 keeps its planner's built-in geometry.
 """
@@ -33,9 +37,11 @@ PARKED = 1e3
 
 
 def kind_of(obstacle: Any) -> str | None:
-    """The kind of ``obstacle`` (None: no parametric form)."""
-    shape = getattr(obstacle, "shape", None)
-    return shape if shape in SIZES else None
+    """The kind of ``obstacle`` (None: no parametric form). Only the built-in classes have
+    one: a subclass (a shape registered outside mmplan) may measure its own distance, so it
+    keeps it (a review's padded sphere was planned 12 cm inside its padding)."""
+    kind = type(obstacle).__dict__.get("parametric_kind")
+    return kind if kind in SIZES else None
 
 
 def geometry(obstacle: Any, kind: str | None = None) -> tuple[float, ...]:

@@ -35,6 +35,8 @@ class Sphere(Obstacle):
     """
 
     shape: ClassVar[str] = "sphere"
+    #: Its parametric form (:mod:`mmplan.scene.parametric`); not inherited by subclasses.
+    parametric_kind: ClassVar[str] = "sphere"
     center: Vec3
     radius: float
     influence: float | None = None

@@ -138,3 +138,57 @@ def test_a_compiled_tracker_is_loaded_without_building_its_model(
     assert builds == []
     z = np.asarray(model.null_vector(q), dtype=float)  # built now, once
     assert builds == ["WeightedPseudoinverse"] and z.shape == (problem.robot.n, 1)
+
+
+@needs_cc
+def test_a_parked_slot_pushes_nothing_where_it_is_parked() -> None:
+    """A review's case: omni3-impedance moved to (1000, 1000), where an unused slot parks its
+    obstacle: the compiled plan was pushed 0.5 m by a post that is not in the scene. The slot's
+    active flag switches it off: the same samples as the built-in step."""
+    import yaml
+
+    from mmplan.scenario.loader import Scenario, builtin_scenarios
+
+    data = yaml.safe_load(builtin_scenarios()["omni3-impedance"].read_text())
+    data["start"][:2] = [999.85, 999.85]  # near the parked (1000, 1000)
+    data["goal"]["path"]["start"][:2] = [999.75, 999.75]
+    data["obstacles"][0]["base_center"][:2] = [1001.35, 999.0]  # the post away from the path
+    moved = Scenario.from_dict(data, "omni3-impedance-far").build()
+    planner = mmplan.get_planner("impedance")
+    compiled = planner().plan(moved)
+    assert compiled.info["backend"] == "c"
+    built_in = planner().plan(dataclasses.replace(
+        moved, settings=moved.settings.model_copy(update={"codegen": False})))  # fmt: skip
+    np.testing.assert_allclose(compiled.trajectory.q, built_in.trajectory.q, atol=1e-9)
+    assert compiled.info["min_platform_obstacle_distance_m"] == pytest.approx(
+        built_in.info["min_platform_obstacle_distance_m"], abs=1e-9)  # fmt: skip
+
+
+def test_a_shape_subclass_keeps_its_own_distance() -> None:
+    """A review's case: a padded sphere (a subclass measuring 0.3 m more) was planned with the
+    plain sphere's parametric distance, 12 cm inside its padding."""
+
+    @dataclasses.dataclass(frozen=True)
+    class PaddedSphere(Sphere):
+        def signed_distance_sym(self, p: Any) -> Any:
+            return super().signed_distance_sym(p) - 0.3
+
+    assert parametric.kind_of(Sphere((0, 0, 0), 1.0, None)) == "sphere"
+    assert parametric.kind_of(PaddedSphere((0, 0, 0), 1.0, None)) is None
+    assert Slots.of([PaddedSphere((0, 0, 0), 1.0, None)]) is None
+
+
+@needs_cc
+def test_an_unreadable_library_falls_back_to_the_virtual_machine(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from mmplan.planners.tracking import compiled
+
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    _plan("diffdrive3-track")
+    for library in tmp_path.glob("track_*.so"):
+        library.write_text("not a library")  # another machine's, or damaged
+    monkeypatch.setattr(compiled, "_FAILED", set())
+    sol = _plan("diffdrive3-track")
+    assert sol.info["backend"] == "vm" and sol.status.value == "reached"
+    assert "could not be built or loaded" in capsys.readouterr().err

@@ -125,10 +125,14 @@ class EndogenousModel:
         self.platform_path: ca.Function
         self.rates: ca.Function
         library = self._library() if codegen else None
-        if library is not None:  # loaded without building the symbolic model
-            self.endpoint, self.platform_path, self.rates = cg.load(LIBRARY_FUNCTIONS, library)
-            self.backend = "c"
-        else:
+        try:
+            if library is not None:  # loaded without building the symbolic model
+                self.endpoint, self.platform_path, self.rates = cg.load(LIBRARY_FUNCTIONS, library)
+                self.backend = "c"
+        except RuntimeError:  # unreadable (another machine's, damaged): the VM, said once
+            cg.notice(f"{library} could not be loaded: the endogenous model runs on CasADi's "
+                      "virtual machine")  # fmt: skip
+        if self.backend == "vm":
             self._build()
         self._bind()
 

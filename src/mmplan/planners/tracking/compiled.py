@@ -63,7 +63,21 @@ def functions(
         cg.notice(f"{cg.no_compiler()}: the tracker's step runs on CasADi's virtual machine")
         return None
     key = disk_key(robot, names[0], settings, slots, ground)
+    if key in _FAILED:  # tried in this process: not again at every plan
+        return None
     library = cg.compile_library(
         lambda: list(build()), f"track_{names[0]}", FLAGS, cg.notice, key=key
     )  # fmt: skip
-    return None if library is None else cg.load(names, library)
+    try:
+        if library is not None:
+            return cg.load(names, library)
+    except RuntimeError:  # unreadable (another machine's, damaged): the VM, said once
+        pass
+    _FAILED.add(key)
+    cg.notice(f"the compiled {names[0]} could not be built or loaded: it runs on CasADi's "
+              "virtual machine")  # fmt: skip
+    return None
+
+
+#: Keys whose library failed to build or load in this process.
+_FAILED: set[str] = set()

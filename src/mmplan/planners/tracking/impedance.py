@@ -123,8 +123,9 @@ class VirtualImpedance:
                 if isinstance(d_max, float | int)
                 else ca.fmax(d_max, settings.d_min + 1e-9)
             )
-            F += obstacle_force_magnitude(d, settings.d_min, reach, settings.b_obs) * normal
-            d_min = ca.fmin(d_min, d)
+            mag = obstacle_force_magnitude(d, settings.d_min, reach, settings.b_obs)
+            F += term.gate(mag * normal)  # a parked slot pushes nothing (slots.py)
+            d_min = ca.fmin(d_min, term.seen(d))
         at_platform = ca.Function("f", [p, p_obs], [F, d_min])
         F_q, d_q = at_platform(ca.vertcat(q[0], q[1], 0), p_obs)
         self.force_p = ca.Function("impedance_force_p", [q, p_obs], [F_q, d_q])

@@ -105,7 +105,7 @@ def min_clearance_sym(pairs: Sequence[tuple[Term, ca.SX]], floor: Sequence[ca.SX
     """Smallest d_ij of :func:`sphere_distances` and of the ``floor`` distances
     (:func:`floor_distances`); 1e3 when there are none."""
     d_min = ca.SX(1e3)
-    for d in [d for _, d in pairs] + list(floor):
+    for d in [term.seen(d) for term, d in pairs] + list(floor):
         d_min = ca.fmin(d_min, d)
     return d_min
 
@@ -144,7 +144,7 @@ def obstacle_potential(
     total = ca.SX(0)
     for term, d in pairs:
         influence = term.influence if term.influence is not None else d0
-        total += barrier_term(d, k1, influence, d_floor)
+        total += term.gate(barrier_term(d, k1, influence, d_floor))
     for d in floor:
         total += barrier_term(d, k1, d0, d_floor)
     return total, min_clearance_sym(pairs, floor)

@@ -109,7 +109,7 @@ class WeightedPseudoinverse:
         if name in LIBRARY_LAZY and "_built" not in self.__dict__:
             self._build()
             return getattr(self, name)
-        raise AttributeError(name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def library_functions(self) -> list[ca.Function]:
         """What the compiled library holds: the step and the task Jacobian."""
@@ -118,7 +118,6 @@ class WeightedPseudoinverse:
     def _build(self) -> None:
         robot, settings = self.robot, self.settings
         obstacles, ground, slots = self._scene
-        self._built = True
         # the obstacles: numbers in the step's input (slots) or built in
         p_obs = ca.SX.sym("obstacles", slots.size if slots is not None else 0)
         terms = slots.terms(p_obs) if slots is not None else baked(obstacles)
@@ -165,6 +164,7 @@ class WeightedPseudoinverse:
             "step",
             compile_step("pinv_step", q, ca.vertcat(xd, dxd), dq, aux, robot.n, settings.dt, p_obs),
         )
+        self._built = True
 
     def svd_velocity(self, q: Array, xd: Array, dxd: Array) -> Array:
         """dq by [AbdessemedDjebrani] eq. (27) through the SVD of J W0^-1

@@ -6,8 +6,10 @@ them from the scene's obstacles (their numbers built into the expressions, any s
 :class:`Slots` makes them from a parameter vector with a fixed number of slots per shape kind
 (:mod:`mmplan.scene.parametric`: spheres, cylinders, boxes), so one compiled step serves every
 scene with those kinds and at most those counts: obstacle centres, sizes, yaw and influence
-distances are numbers in its input (``Slots.pack``), an unused slot parks its obstacle 1 km
-away. Counts are rounded up to a multiple of ``SLOT_STEP``.
+distances are numbers in its input (``Slots.pack``); an unused slot parks its obstacle 1 km
+away and switches its terms off by its active flag (a review: the impedance force measures a
+footprint at the obstacle's own height, so a parked post at (1000, 1000) pushed a robot planned
+near there by 0.5 m). Counts are rounded up to a multiple of ``SLOT_STEP``.
 """
 
 from __future__ import annotations
@@ -40,6 +42,16 @@ class Term:
     distance: Callable[[ca.SX], ca.SX]
     horizontal: Callable[[ca.SX], ca.SX]
     influence: float | ca.SX | None
+    active: ca.SX | None = None  # a slot's 1 (an obstacle) or 0 (parked); None: always on
+
+    def gate(self, value: ca.SX) -> ca.SX:
+        """``value`` (a potential or a force) where the obstacle is, 0 for a parked slot (x 1
+        exactly: the same bits as without the gate)."""
+        return value if self.active is None else self.active * value
+
+    def seen(self, d: ca.SX) -> ca.SX:
+        """A distance ``d`` for the clearance, 1e3 m for a parked slot."""
+        return d if self.active is None else ca.if_else(self.active > 0.5, d, 1e3)
 
 
 def baked(obstacles: Sequence[Any]) -> list[Term]:
@@ -70,8 +82,8 @@ class Slots:
 
     @property
     def size(self) -> int:
-        """Numbers of the parameter vector: each slot's geometry and its influence."""
-        return sum(k * (parametric.SIZES[kind] + 1) for kind, k in self.kinds)
+        """Numbers of the parameter vector: each slot's geometry, influence and active flag."""
+        return sum(k * (parametric.SIZES[kind] + 2) for kind, k in self.kinds)
 
     def accepts(self, obstacles: Sequence[Any]) -> bool:
         """These obstacles fit in the slots."""
@@ -85,9 +97,9 @@ class Slots:
         for kind, count in self.kinds:
             n = parametric.SIZES[kind]
             for _ in range(count):
-                g, influence = p[at : at + n], p[at + n]
-                out.append(Term(_distance(kind, g), _horizontal(kind, g), influence))
-                at += n + 1
+                g, influence, active = p[at : at + n], p[at + n], p[at + n + 1]
+                out.append(Term(_distance(kind, g), _horizontal(kind, g), influence, active))
+                at += n + 2
         return out
 
     def pack(self, obstacles: Sequence[Any], influence: float) -> Array:
@@ -102,9 +114,9 @@ class Slots:
                 if j < len(mine):
                     ob = mine[j]
                     own = ob.influence if ob.influence is not None else influence
-                    out += [*parametric.geometry(ob), float(own)]
+                    out += [*parametric.geometry(ob), float(own), 1.0]
                 else:
-                    out += [*parametric.parked(kind), float(influence)]
+                    out += [*parametric.parked(kind), float(influence), 0.0]
         return np.asarray(out, dtype=float)
 
 
