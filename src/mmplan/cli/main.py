@@ -483,7 +483,8 @@ def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool, jobs: i
         from mmplan.reproduce.runs import RunOutcome
 
         selected = (*only, *names)
-        run_specs(selected)  # validates the names before any work
+        specs = run_specs(selected)  # validates the names before any work
+        width = max([36, *(len(spec.name) for spec in specs)])  # the names' column
         progress("reproducing")
 
         def advance(name: str, done: float, count: int) -> None:
@@ -494,7 +495,7 @@ def reproduce_cmd(out_dir: Path, only: tuple[str, ...], no_report: bool, jobs: i
             failed = run.status != "reached" and run.spec.base is None
             if failed or not quiet:
                 mark = "ok  " if run.status == "reached" else "FAIL" if failed else "    "
-                progress.print(f"{mark} {run.spec.name:36s} {run.status:10s} "
+                progress.print(f"{mark} {run.spec.name:{width}s} {run.status:10s} "
                                f"{run.wall_time_s:6.1f} s" + (f"  (report: {run.report_error})"
                                                               if run.report_error else ""))
 

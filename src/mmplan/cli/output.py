@@ -197,9 +197,12 @@ def print_rates(rates: RateReport) -> None:
               markup=False)
     for c in rates.checks:
         verdict = "ok" if not c.failures() else "FAIL"
+        margin = c.limit - c.peak
+        if abs(margin) <= 1e-9 * max(abs(c.limit), 1.0):
+            margin = 0.0  # at the limit to rounding ("margin -3.2e-14: ok" puzzled a new user)
         out.print(f"  {c.label + ':':28s}peak {c.peak:.4g}, between samples "
                   f"{c.step_peak:.4g}, limit {c.limit:.4g} {c.unit}, margin "
-                  f"{c.limit - c.peak:.3g}: {verdict}",
+                  f"{margin:.3g}: {verdict}",
                   markup=False)
 
 

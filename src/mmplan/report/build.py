@@ -174,6 +174,6 @@ def _write(root: Path, plan: PlanData, view: Overview, figures: list[RenderedFig
         out.write_text(text, encoding="utf-8")
     except OSError as exc:
         raise InputError(
-            "plan_dir", f"cannot write the report into {root}: {exc.strerror}"
+            str(root), f"cannot write the report here: {exc.strerror}"
         ) from None
     return out

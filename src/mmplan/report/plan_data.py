@@ -155,10 +155,12 @@ def check_plan_dir(directory: str | Path) -> Path:
     """
     root = Path(directory)
     if not root.is_dir():
-        raise InputError("plan_dir", f"{root} is not a directory")
+        raise InputError(str(root), "not a plan directory")
     for name in REQUIRED_FILES:
         if not (root / name).is_file():
-            raise InputError("plan_dir", f"{root} has no {name} (written by `mmplan plan`)")
+            raise InputError(
+                str(root), f"not a plan directory: {name} missing (written by `mmplan plan`)"
+            )
     return root
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -139,6 +140,7 @@ def _problem(error: Mapping[str, Any]) -> str:
     if kind == "finite_number" or (nan and kind != "value_error"):  # not "should be <= 1"
         return f"expected a finite number, got {short_repr(value)}"
     msg = msg.removeprefix("Value error, ")
+    msg = re.sub(r" or instance of \w+", "", msg)  # pydantic names our class (a new user asked)
     msg = msg[:1].lower() + msg[1:]
     if kind.endswith("_type") or kind.endswith("_parsing"):
         msg += f", got {short_repr(error['input'])}"
