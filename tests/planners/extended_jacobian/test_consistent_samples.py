@@ -139,3 +139,27 @@ def test_a_plan_cut_short_while_moving_passes_every_check_but_completion(
         before = ExtendedJacobian().plan(problem)
         old = check(before.trajectory, problem, before.status)
         assert any(f.startswith("ddq consistency") for f in old.failures())
+
+
+def test_a_feedback_plan_the_retiming_kept_inside_says_so() -> None:
+    """A feedback-mode path that left the torque limits (status infeasible, its outcome kept)
+    and that the re-timing brings inside: reached, and the message says which did what (this
+    line once moved under the moving-start branch and was never printed)."""
+    import dataclasses
+
+    import mmplan
+    from mmplan.planners.extended_jacobian.generator import wheel_metric_inverse
+    from mmplan.planners.extended_jacobian.rollout import rollout
+    from mmplan.trajectory import Status
+
+    problem = mmplan.load_scenario("youbot4r-reach-smooth").build()
+    prep = ExtendedJacobian()._prepare(problem)
+    path = rollout(prep.fns, problem.robot.pfaffian, wheel_metric_inverse(problem.robot),
+                   prep.q0, prep.params, prep.options, prep.switch)  # fmt: skip
+    assert path.status is Status.REACHED
+    left = dataclasses.replace(path, status=Status.INFEASIBLE, message="torque limits broken",
+                               outcome=(path.status, path.message))  # fmt: skip
+    res = time_scaling.retime(left, prep.fns, prep.options)
+    assert res.status is Status.REACHED
+    assert "the virtual control alone left the torque limits, the re-timing kept them" in (
+        res.message)  # fmt: skip

@@ -228,13 +228,13 @@ def scale_path(
         status, message = path.outcome
     if status is Status.REACHED:
         message = f"goal reached at t = {sc.t[-1]:.3f} s (generator path {path.t[-1]:.3f} s)"
+        if path.status is Status.INFEASIBLE:
+            message += "; the virtual control alone left the torque limits, the re-timing kept them"
     if stepped:
         message += (
             f"; starts at the time rate {np.sqrt(sc.x[0]):.3g}, not the robot's {start_rate:.3g}"
             " (no rate near it holds the limits on this path: a step in the velocity)"
         )
-        if path.status is Status.INFEASIBLE:
-            message += "; the virtual control alone left the torque limits, the re-timing kept them"
     if over > 1e-9:
         status = Status.INFEASIBLE
         message = f"torque limits broken by up to {over:.3g} N m; " + message
