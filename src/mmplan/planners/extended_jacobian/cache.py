@@ -108,18 +108,19 @@ def generator(
             if fns is not None and (built_in is not None or fns.layout.supports(partition)):
                 break
             fns = None
-        family = "" if fns is not None else ej_compiled.family_key(robot, model)
-        for wide, its in [] if fns is not None else ej_compiled.wider(family, slots):
-            # a library with more slots (or more shape types) serves this scene: no compile
-            fns = ej_compiled.load(wide, functools.partial(symbolic, slots=its))
-            if fns is not None and fns.layout.supports(partition):
-                break
-            fns = None
         if fns is None:
-            dkey = ej_compiled.disk_key(robot, slots, model)
-            fns = symbolic(dkey, compiled=True)
-            if fns.compiled and fns.layout.supports(partition):
-                ej_compiled.remember(family, slots, dkey)
+            family = ej_compiled.family_key(robot, model)
+            for wide, its in ej_compiled.wider(family, slots):
+                # a library with more slots (or more shape types) serves this scene: no compile
+                fns = ej_compiled.load(wide, functools.partial(symbolic, slots=its))
+                if fns is not None and fns.layout.supports(partition):
+                    break
+                fns = None
+            if fns is None:
+                dkey = ej_compiled.disk_key(robot, slots, model)
+                fns = symbolic(dkey, compiled=True)
+                if fns.compiled and fns.layout.supports(partition):
+                    ej_compiled.remember(family, slots, dkey)
     else:
         if codegen is not False and notify is not None:
             notify(f"{cg.no_compiler()}: the generator runs on CasADi's virtual machine")

@@ -109,13 +109,13 @@ class Replanner:
         q0 = ej_checks.check_start(self.robot, problem.start)
         self.partition = choose_partition(self.robot, q0)
         self.heading = heading_reference(self.robot, q0, self.goal)
-        self.fns = self._generator(self.partition)
+        self.fns = self._generator(self.partition, self.slots)
         self.winv = wheel_metric_inverse(self.robot)
 
-    def _generator(self, partition: Partition, codegen: bool | None = None) -> GeneratorFunctions:
+    def _generator(
+        self, partition: Partition, slots: Sequence[tuple[Shape, int]], codegen: bool | None = None
+    ) -> GeneratorFunctions:
         s = self.settings
-        # after the first: the slots of the generator in use (a wider library's, cache.py)
-        slots = self.slots if not hasattr(self, "fns") else self.fns.layout.slots
         return ej_cache.generator(
             self.robot, partition, slots, s.penalty_weight, s.varrho,
             s.arm_gradient_weight, s.codegen if codegen is None else codegen, self.posture,
@@ -126,14 +126,12 @@ class Replanner:
         """p for the scene and goal, and the partition in it: chosen at q (the first one kept
         when the generator cannot take the new one)."""
         s = self.settings
+        models = [ob.enlarged(s.obstacle_margin).superellipsoid() for ob in scene.obstacles]
         obstacles = [
-            ObstacleTerm(
-                ob.enlarged(s.obstacle_margin).superellipsoid(),
-                ob.influence if ob.influence is not None else s.influence,
-            )
-            for ob in scene.obstacles
+            ObstacleTerm(model, ob.influence if ob.influence is not None else s.influence)
+            for model, ob in zip(models, scene.obstacles, strict=True)
         ]
-        exponents = [ob.superellipsoid().exponents for ob in scene.obstacles]
+        exponents = [model.exponents for model in models]
         if not self.fns.layout.accepts(exponents):
             # before the goal's check: a goal under one of too many obstacles is this error
             kinds = slots_for(exponents, 1)
@@ -208,7 +206,9 @@ class Replanner:
         def build(other: Partition) -> GeneratorFunctions:
             if self.fns.layout.supports(other):
                 return self.fns
-            return self._generator(other, codegen=False)  # built in: the VM, no compile
+            # the VM, no compile; the slots of the generator in use (a wider library's,
+            # cache.py: p keeps its layout)
+            return self._generator(other, self.fns.layout.slots, codegen=False)
 
         switch = PartitionSwitch(self.robot, build, [part], opt.switch_cond)
         free = rollout(self.fns, self.robot.pfaffian, self.winv, qv, p, opt, switch, dq0=path_dq)

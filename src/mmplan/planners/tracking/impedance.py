@@ -118,11 +118,7 @@ class VirtualImpedance:
             d = term.horizontal(p)
             grad = ca.gradient(d, p)[:2]
             normal = grad / ca.sqrt(ca.sumsqr(grad) + 1e-18)
-            reach = (
-                max(d_max, settings.d_min + 1e-9)
-                if isinstance(d_max, float | int)
-                else ca.fmax(d_max, settings.d_min + 1e-9)
-            )
+            reach = ca.fmax(d_max, settings.d_min + 1e-9)  # a number or a slot's parameter
             mag = obstacle_force_magnitude(d, settings.d_min, reach, settings.b_obs)
             F += term.gate(mag * normal)  # a parked slot pushes nothing (slots.py)
             d_min = ca.fmin(d_min, term.seen(d))
