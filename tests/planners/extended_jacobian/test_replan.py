@@ -231,10 +231,16 @@ def test_a_goal_under_an_obstacle_holds_and_bad_states_are_input_errors() -> Non
         replanner.replan(q, dq, problem.scene, horizon=-1.0)
     with pytest.raises(InputError, match=r"^goal: "):
         replanner.replan(q, dq, problem.scene, goal=[1.0, 2.0])
-    too_many = Scene((*problem.scene.obstacles, *(Sphere((9.0, float(i), 0.4), 0.1, 0.1)
-                                                  for i in range(6)), ball), None)  # fmt: skip
-    with pytest.raises(InputError, match=r"^scene: .*spare slots"):  # before the goal's check
-        replanner.replan(q, dq, too_many)
+    from mmplan.scene.superellipsoid import Superellipsoid
+
+    many = Scene((*problem.scene.obstacles, *(Sphere((9.0, float(i), 0.4), 0.1, 0.1)
+                                              for i in range(6)), ball), None)  # fmt: skip
+    held = replanner.replan(q, dq, many)  # more spheres than slots: the near ones in them
+    assert held.status.value == "infeasible" and "goal blocked" in held.message
+    odd = Superellipsoid((9.0, 0.0, 0.4), (0.1, 0.1, 0.1), (0.5, 0.7))  # in no library
+    new_type = Scene((*problem.scene.obstacles, odd, ball))
+    with pytest.raises(InputError, match=r"^scene: .*shape type"):  # before the goal's check
+        replanner.replan(q, dq, new_type)
 
 
 def test_a_scaled_replan_without_a_path_keeps_the_robots_velocity() -> None:

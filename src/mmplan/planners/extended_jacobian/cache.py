@@ -13,9 +13,12 @@ most ``SIZE`` generators are kept (LRU).
 
 On disk, a scene whose slots no compiled library has exactly is served by a library of the
 same robot model and settings with at least its slots of each shape type, unused slots parked
-(:func:`~mmplan.planners.extended_jacobian.compiled.wider`); only without one is a library
-compiled (docs/extended_jacobian.md: measured cost of parked slots, +11 % a plan for 4 slots a
-type against 2).
+(:func:`~mmplan.planners.extended_jacobian.compiled.wider`); else by one with fewer slots of
+a type but one of each, the near obstacles in its slots
+(:func:`~mmplan.planners.extended_jacobian.compiled.covering`,
+:mod:`~mmplan.planners.extended_jacobian.active`); only without either is a library compiled
+(docs/extended_jacobian.md: measured cost of parked slots, +11 % a plan for 4 slots a type
+against 2).
 """
 
 from __future__ import annotations
@@ -66,16 +69,23 @@ def generator(
     posture: tuple[float, ...] | None = None,
     heading: float | None = None,
     notify: Callable[[str], None] | None = None,
+    exact: bool = False,
 ) -> Built:
     """The generator functions of this robot, obstacle slots, settings and criterion terms
     (posture weight, whether there is a heading term: :mod:`~mmplan.planners.
     extended_jacobian.posture`), cached; ``partition`` and ``heading`` (theta_ref) are
-    values of p, except a partition the layout cannot take (then it is built in)."""
+    values of p, except a partition the layout cannot take (then it is built in).
+
+    A compiled library with fewer slots of some shape type than ``slots`` (but one of each)
+    serves too, the near obstacles in its slots (:mod:`~mmplan.planners.extended_jacobian.
+    active`), unless ``exact``: then the generator holds ``slots``."""
     model = (penalty_weight, varrho, arm_weight, posture, heading is not None)
     key = (tuple(slots), codegen, *model)
     for k in (key, (*key, tuple(partition.R))):
         hit = _CACHE.get(robot, k)
-        if hit is not None and (len(k) > len(key) or hit.layout.supports(partition)):
+        if hit is None or not (len(k) > len(key) or hit.layout.supports(partition)):
+            continue
+        if not exact or all(dict(hit.layout.slots).get(e, 0) >= n for e, n in slots):
             return Built(hit, 0.0, True)
     clock = time.perf_counter()
 
@@ -113,6 +123,12 @@ def generator(
             for wide, its in ej_compiled.wider(family, slots):
                 # a library with more slots (or more shape types) serves this scene: no compile
                 fns = ej_compiled.load(wide, functools.partial(symbolic, slots=its))
+                if fns is not None and fns.layout.supports(partition):
+                    break
+                fns = None
+            for few, its in [] if fns is not None or exact else ej_compiled.covering(family, slots):
+                # fewer slots of a type than obstacles: the near ones in the slots, no compile
+                fns = ej_compiled.load(few, functools.partial(symbolic, slots=its))
                 if fns is not None and fns.layout.supports(partition):
                     break
                 fns = None

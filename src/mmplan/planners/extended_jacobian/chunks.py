@@ -23,6 +23,7 @@ import numpy as np
 from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import divergence
+from mmplan.planners.extended_jacobian.active import ActiveSlots
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
@@ -81,12 +82,15 @@ def run(
     rows: SampleLog,
     wants_switch: Callable[[Array, float, Array], bool] | None,
     steps: int,
+    active: ActiveSlots | None = None,
 ) -> Chunk:
     """Run one chunk from sample k (virtual control u so far); append accepted samples to rows.
 
     ``wants_switch(q, cond(E), E)``: a partition switch is wanted at the chunk's start (the loop
     then decides that sample; None: no switch possible). ``steps``: the run's last sample (the
-    next chunk is guessed only when it may run, :func:`usable`).
+    next chunk is guessed only when it may run, :func:`usable`). ``active``: the scene has more
+    obstacles than slots; the chunk is cut before a state near one left out
+    (:mod:`~mmplan.planners.extended_jacobian.active`).
     """
     n, a, dt = fns.n, fns.n_act, opt.dt
     if opt.torque_control:
@@ -120,6 +124,9 @@ def run(
     with np.errstate(invalid="ignore"):
         event |= due & opt.stalled(prev, err)
     m = int(np.argmax(event)) if event.any() else K
+    if active is not None and m:  # states k .. k + m must keep off the obstacles left out
+        m = min(m, active.first_unsafe(np.vstack([q[None, :], X[:m, :n]])) - 1)
+        m = max(m, 0)
     none = Chunk(0, 0.0, q, dq, u, 1.0)
     if m == 0:
         return none

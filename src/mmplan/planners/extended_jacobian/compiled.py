@@ -124,14 +124,36 @@ def wider(
     type (more slots or more types: unused slots are parked), the fewest slots first."""
     need = dict(slots)
     found: list[tuple[int, str, tuple[tuple[Shape, int], ...]]] = []
-    for key, listed in _family(family).items():
-        try:
-            have = tuple(((float(e[0]), float(e[1])), int(k)) for e, k in listed)
-        except (TypeError, ValueError, IndexError):
-            continue
+    for key, have in _listed(family):
         if all(dict(have).get(e, 0) >= k for e, k in need.items()):
             found.append((sum(k for _, k in have), key, have))
     return [(key, have) for _, key, have in sorted(found)]
+
+
+def covering(
+    family: str, slots: Sequence[tuple[Shape, int]]
+) -> list[tuple[str, tuple[tuple[Shape, int], ...]]]:
+    """Keys and slots of the family's libraries with a slot of every shape type of ``slots``
+    but fewer slots of some (the near obstacles in the slots:
+    :mod:`~mmplan.planners.extended_jacobian.active`), the most slots of those types first."""
+    need = dict(slots)
+    found: list[tuple[int, str, tuple[tuple[Shape, int], ...]]] = []
+    for key, have in _listed(family):
+        mine = dict(have)
+        if all(mine.get(e, 0) >= 1 for e in need) and any(mine[e] < k for e, k in need.items()):
+            found.append((-sum(min(mine[e], k) for e, k in need.items()), key, have))
+    return [(key, have) for _, key, have in sorted(found)]
+
+
+def _listed(family: str) -> list[tuple[str, tuple[tuple[Shape, int], ...]]]:
+    """The family's libraries and their slots (entries that do not parse skipped)."""
+    out = []
+    for key, listed in _family(family).items():
+        try:
+            out.append((key, tuple(((float(e[0]), float(e[1])), int(k)) for e, k in listed)))
+        except (TypeError, ValueError, IndexError):
+            continue
+    return out
 
 
 def _external(name: str, library: str) -> ca.Function:

@@ -55,6 +55,25 @@ HEAD = 8
 Shape = tuple[float, float]  # exponents (e1, e2)
 
 
+def shape_of(model: Any) -> Shape:
+    """The shape type (e1, e2) of a superellipsoid model."""
+    return (float(model.exponents[0]), float(model.exponents[1]))
+
+
+def put_slot(p: Array, at: int, model: Any, delta: float) -> None:
+    """Write an obstacle (its superellipsoid model and delta) into the slot at ``at`` of p."""
+    p[at : at + 3] = model.center
+    p[at + 3 : at + 6] = model.semi_axes
+    yaw = float(getattr(model, "yaw", 0.0))
+    p[at + 6 : at + 8] = math.cos(yaw), math.sin(yaw)  # libm's, as the C code's
+    p[at + 8] = float(delta)
+
+
+def park_slot(p: Array, at: int) -> None:
+    """Mark the slot at ``at`` of p unused (module docstring)."""
+    p[at : at + SLOT_SIZE] = (PARKED, PARKED, PARKED, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0)
+
+
 def slots_for(exponents: Sequence[Shape], step: int = SLOT_STEP) -> tuple[tuple[Shape, int], ...]:
     """Shape types and slot counts for obstacles with these exponents (sorted by type)."""
     counts: dict[Shape, int] = {}
@@ -134,6 +153,13 @@ class ParameterLayout:
                 at += SLOT_SIZE
         return out
 
+    def starts(self) -> dict[Shape, list[int]]:
+        """Offsets in p of the slots of each shape type, in order."""
+        out: dict[Shape, list[int]] = {}
+        for e, at in self.slot_offsets():
+            out.setdefault(e, []).append(at)
+        return out
+
     def accepts(self, exponents: Sequence[Shape]) -> bool:
         """The slots hold obstacles with these exponents."""
         need = dict(slots_for(exponents, 1))
@@ -175,20 +201,14 @@ class ParameterLayout:
         p[:3] = np.asarray(p_f, dtype=float)
         p[3:6] = np.asarray(gains, dtype=float)
         p[FLOOR : FLOOR + 2] = (-PARKED, 0.0) if ground is None else ground
-        free: dict[Shape, list[int]] = {}
-        for e, at in self.slot_offsets():
-            free.setdefault(e, []).append(at)
-            p[at : at + SLOT_SIZE] = (PARKED, PARKED, PARKED, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0)
+        free = self.starts()
+        for at in (a for starts in free.values() for a in starts):
+            park_slot(p, at)
         for model, delta in obstacles:
-            e = (float(model.exponents[0]), float(model.exponents[1]))
+            e = shape_of(model)
             if not free.get(e):
                 raise ValueError(f"no free slot for an obstacle with exponents {e}")
-            at = free[e].pop(0)
-            p[at : at + 3] = model.center
-            p[at + 3 : at + 6] = model.semi_axes
-            yaw = float(getattr(model, "yaw", 0.0))
-            p[at + 6 : at + 8] = math.cos(yaw), math.sin(yaw)  # libm's, as the C code's
-            p[at + 8] = float(delta)
+            put_slot(p, free[e].pop(0), model, delta)
         if self.heading:
             p[self.heading_index] = 0.0 if heading is None else heading
         if self.n_arm:

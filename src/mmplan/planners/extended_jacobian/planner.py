@@ -52,6 +52,7 @@ from mmplan.planners.base import Planner, register
 from mmplan.planners.extended_jacobian import cache as ej_cache
 from mmplan.planners.extended_jacobian import checks as ej_checks
 from mmplan.planners.extended_jacobian import prefetch as ej_prefetch
+from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError
 from mmplan.planners.extended_jacobian.criterion import (
     Partition,
     build_criterion,
@@ -65,7 +66,7 @@ from mmplan.planners.extended_jacobian.generator import (
 )
 from mmplan.planners.extended_jacobian.online import OnlineGenerator
 from mmplan.planners.extended_jacobian.options import RolloutOptions
-from mmplan.planners.extended_jacobian.parameters import slots_for
+from mmplan.planners.extended_jacobian.parameters import shape_of, slots_for
 from mmplan.planners.extended_jacobian.posture import heading_reference, posture_weights
 from mmplan.planners.extended_jacobian.replan import Replanner
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
@@ -100,6 +101,7 @@ class _Prepared:
     build_time: float
     time_scaling: bool
     switch: PartitionSwitch
+    active: ActiveSlots | None = None  # more obstacles than slots (active.py)
 
 
 @register
@@ -120,14 +122,23 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         """
         prep = self._prepare(problem, guess=True)
         robot = problem.robot
-        res = self._run(prep, robot, prep.options, prep.switch)
+        try:
+            res = self._run(prep, robot, prep.options, prep.switch)
+        except CrowdedError as crowd:  # more obstacles near at once than the library's slots
+            cg.notice(f"{crowd}: a generator with the scene's slots")
+            prep = self._prepare(problem, guess=True, exact=True)
+            res = self._run(prep, robot, prep.options, prep.switch)
         refined = prep.options
         while res.info.get("step_residual_ratio", 0.0) > CHECK_RATIO and refined.dt / 2 >= MIN_DT:
             # the samples miss their motion where the generator's path turns within a step
             # (module docstring): the same plan with half the step
             refined = dataclasses.replace(refined, dt=refined.dt / 2)
             switch = dataclasses.replace(prep.switch, partitions=[prep.partition])
-            res = self._run(prep, robot, refined, switch)
+            try:
+                res = self._run(prep, robot, refined, switch)
+            except CrowdedError:  # the finer step came nearer: every obstacle in a slot
+                prep = dataclasses.replace(self._prepare(problem, exact=True), switch=switch)
+                res = self._run(prep, robot, refined, switch)
             res.info["refined_dt"] = refined.dt
             prep = dataclasses.replace(prep, switch=switch)
         if res.info.get("step_residual_ratio", 0.0) > CHECK_RATIO:
@@ -178,7 +189,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         run = rollout_time_scaled if prep.time_scaling else rollout
         res = run(
             prep.fns, robot.pfaffian, wheel_metric_inverse(robot), prep.q0, prep.params,
-            options, switch,
+            options, switch, active=prep.active,
         )  # fmt: skip
         if not prep.time_scaling and options.rates is not None:
             res = retime(res, prep.fns, options)
@@ -186,7 +197,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
 
     def online(self, problem: Problem) -> OnlineGenerator:
         """The generator as an online step for a control loop (state in; ddq, tau, u out)."""
-        prep = self._prepare(problem)
+        prep = self._prepare(problem, exact=True)  # p is fixed: every obstacle in a slot
         return OnlineGenerator(prep.fns, prep.params, prep.options)
 
     def replanner(self, problem: Problem, spare: int = 2) -> Replanner:
@@ -196,7 +207,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         return Replanner(problem, spare)
 
     @classmethod
-    def _prepare(cls, problem: Problem, guess: bool = False) -> _Prepared:
+    def _prepare(cls, problem: Problem, guess: bool = False, exact: bool = False) -> _Prepared:
         """Checks, the compiled generator and the run options of ``problem`` (``guess``: start
         the rollout's first compiled chunk meanwhile, :meth:`GeneratorFunctions.guess_chunk`)."""
         settings = cls.settings(problem.settings)
@@ -250,12 +261,23 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             posture,
             heading,
             notify=before_build,
+            exact=exact,
         )
         fns, build_time = built.fns, built.build_time
+        pairs = [(ob.model, ob.influence) for ob in obstacles]
+        active = None
+        if not fns.layout.accepts([shape_of(m) for m, _ in pairs]):
+            # a library with fewer slots of a type: the near obstacles in its slots
+            active = ActiveSlots(robot, fns.layout, pairs)
+            pairs = []
         params = fns.layout.pack(
-            p_f, options.gains, [(ob.model, ob.influence) for ob in obstacles], ground,
-            partition if fns.layout.n_arm else None, heading,
-        )  # fmt: skip
+            p_f, options.gains, pairs, ground, partition if fns.layout.n_arm else None, heading
+        )
+        if active is not None:
+            try:
+                params = active.start(params, q0)
+            except CrowdedError:
+                return cls._prepare(problem, guess, exact=True)
         if guess and (not options.torque_control or time_scaling):  # from rest, no feedback:
             # its first chunks start meanwhile (each ends by t_max, as the rollout's)
             chunks = int(np.ceil(options.t_max / options.dt)) // fns.chunk_steps
@@ -294,6 +316,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             build_time,
             time_scaling,
             switch,
+            active,
         )
 
 

@@ -54,6 +54,7 @@ from mmplan.compile import codegen as cg
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian import cache as ej_cache
 from mmplan.planners.extended_jacobian import checks as ej_checks
+from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError
 from mmplan.planners.extended_jacobian.criterion import Partition, choose_partition
 from mmplan.planners.extended_jacobian.generator import (
     GeneratorFunctions,
@@ -61,7 +62,7 @@ from mmplan.planners.extended_jacobian.generator import (
     wheel_metric_inverse,
 )
 from mmplan.planners.extended_jacobian.options import RolloutOptions
-from mmplan.planners.extended_jacobian.parameters import Shape, merge_slots, slots_for
+from mmplan.planners.extended_jacobian.parameters import Shape, merge_slots, shape_of, slots_for
 from mmplan.planners.extended_jacobian.posture import heading_reference, posture_weights
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
 from mmplan.planners.extended_jacobian.settings import ExtendedJacobianSettings
@@ -122,9 +123,12 @@ class Replanner:
             self.heading, notify=cg.notice,  # a first compile says so, as plan() does
         ).fns  # fmt: skip
 
-    def params(self, q: Array, scene: Any, goal: Array) -> tuple[Array, Partition]:
+    def params(
+        self, q: Array, scene: Any, goal: Array
+    ) -> tuple[Array, Partition, ActiveSlots | None]:
         """p for the scene and goal, and the partition in it: chosen at q (the first one kept
-        when the generator cannot take the new one)."""
+        when the generator cannot take the new one); with more obstacles of a shape type than
+        slots, the choice of the near ones (:mod:`~mmplan.planners.extended_jacobian.active`)."""
         s = self.settings
         models = [ob.enlarged(s.obstacle_margin).superellipsoid() for ob in scene.obstacles]
         obstacles = [
@@ -132,12 +136,13 @@ class Replanner:
             for model, ob in zip(models, scene.obstacles, strict=True)
         ]
         exponents = [model.exponents for model in models]
-        if not self.fns.layout.accepts(exponents):
-            # before the goal's check: a goal under one of too many obstacles is this error
+        have = dict(self.fns.layout.slots)
+        if not all(have.get(shape_of(m), 0) for m in models):
+            # before the goal's check: a goal under an obstacle of a new type is this error
             kinds = slots_for(exponents, 1)
             raise InputError(
                 "scene", f"{kinds} obstacles by shape type, slots {self.fns.layout.slots}: "
-                "make the Replanner with more spare slots",
+                "make the Replanner with this shape type among its spare ones",
             )  # fmt: skip
         obstacles = ej_checks.fit_influence(obstacles, goal)
         ground = getattr(scene, "ground", None)
@@ -151,14 +156,15 @@ class Replanner:
         layout = self.fns.layout
         part = part if layout.supports(part) else self.partition
         heading = heading_reference(self.robot, q, goal) if layout.heading else None
-        try:
-            p = layout.pack(
-                goal, self.options.gains, [(ob.model, ob.influence) for ob in obstacles], floor,
-                part if layout.n_arm else None, heading,
-            )  # fmt: skip
-            return p, part if layout.n_arm else self.partition
-        except ValueError as err:
-            raise InputError("scene", f"{err}: make the Replanner with more spare slots") from err
+        pairs = [(ob.model, ob.influence) for ob in obstacles]
+        active = None
+        if not layout.accepts(exponents):  # the near obstacles in the slots, chosen along
+            active = ActiveSlots(self.robot, layout, pairs)
+            pairs = []
+        p = layout.pack(
+            goal, self.options.gains, pairs, floor, part if layout.n_arm else None, heading
+        )
+        return p, part if layout.n_arm else self.partition, active
 
     def replan(
         self,
@@ -196,7 +202,7 @@ class Replanner:
         elif scaled:
             path_dq = dqv / rate
         try:
-            p, part = self.params(qv, scene, target)
+            p, part, active = self.params(qv, scene, target)
         except InputError as err:
             if err.field != "goal.position":
                 raise
@@ -211,7 +217,13 @@ class Replanner:
             return self._generator(other, self.fns.layout.slots, codegen=False)
 
         switch = PartitionSwitch(self.robot, build, [part], opt.switch_cond)
-        free = rollout(self.fns, self.robot.pfaffian, self.winv, qv, p, opt, switch, dq0=path_dq)
+        try:
+            free = rollout(
+                self.fns, self.robot.pfaffian, self.winv, qv, p, opt, switch, dq0=path_dq,
+                active=active,
+            )  # fmt: skip
+        except CrowdedError as err:
+            raise InputError("scene", f"{err}: make the Replanner with more spare slots") from err
         if not scaled:
             return free
         if len(free.t) < 2:  # no path to scale: the state as it is

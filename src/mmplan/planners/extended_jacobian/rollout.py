@@ -44,6 +44,7 @@ from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import chunks as ej_fastpath
 from mmplan.planners.extended_jacobian import divergence
+from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
@@ -108,6 +109,7 @@ def rollout(
     switch: PartitionSwitch | None = None,
     fast: bool = True,
     dq0: Array | None = None,
+    active: ActiveSlots | None = None,
 ) -> RolloutResult:
     """Run the generator from ``q0`` (at rest, or moving at ``dq0``) towards the goal p[:3]
     until reached or stopped.
@@ -126,9 +128,15 @@ def rollout(
         p: Generator parameters (goal, gains, scene: ``fns.layout.pack``).
         opt: Options.
         dq0: Start velocity (n,) (re-planning from a moving state); None: rest.
+        active: The scene has more obstacles of a shape type than ``fns`` has slots: which
+            ones p holds is chosen along the run (:mod:`~mmplan.planners.extended_jacobian.
+            active`; p's slots are chosen again at q0).
+
+    Raises:
+        CrowdedError: more obstacles of a type near at once than slots (only with ``active``).
     """
     try:
-        return _run(fns, pfaffian, winv, q0, p, opt, switch, fast, dq0)
+        return _run(fns, pfaffian, winv, q0, p, opt, switch, fast, dq0, active)
     finally:  # however it ended: the worker thread is the time scaling's (or the caller's)
         fns.settle_guesses()
 
@@ -143,10 +151,13 @@ def _run(
     switch: PartitionSwitch | None,
     fast: bool,
     dq0: Array | None,
+    active: ActiveSlots | None,
 ) -> RolloutResult:
     """:func:`rollout`'s loop (its guessed chunks ended by the caller)."""
     n, dt = fns.n, opt.dt
     p = np.array(p, dtype=float)
+    if active is not None:
+        p = active.start(p, q0)
     p_f = p[:3]
     q, dq = np.array(q0, dtype=float), np.zeros(n) if dq0 is None else np.array(dq0, float)
     if switch is not None:
@@ -160,14 +171,17 @@ def _run(
     escape_dir: Array | None = None
     max_cond, infeasible_samples, infeasible_first, s_min = 0.0, 0, None, 1.0
     k, chunked = -1, 0
+    retries = 0
     while k < steps:
         k += 1
         t = k * dt
+        if active is not None and active.flagged:  # an obstacle left out came near
+            p = active.choose(p, q[None, :])
         if fast and ej_fastpath.usable(fns, opt, k, steps, escape_dir is None or t >= escape_until):
             clock = ej_fastpath.StallClock(window, escapes, escape_until)
             can_switch = switch is not None and switches < opt.max_switches
             wants = switch.wants if switch is not None and can_switch else None
-            c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, wants, steps)
+            c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, wants, steps, active)
             if c.m:
                 max_cond, q, dq, u, k = max(max_cond, c.cond), c.q, c.dq, c.u, k + c.m - 1
                 s_min, chunked = min(s_min, c.s_min), chunked + c.m
@@ -203,6 +217,17 @@ def _run(
             gain = opt.escape_gain * (1.0 + opt.gains[0] * err)  # outweighs the attraction
             ext = _escape_push(escape_dir, q, dq, pfaffian, winv, gain)
         d = decide(out, dq, u, k == 0, ext, opt)
+        ahead: tuple[Array, Array] | None = None
+        if active is not None and k < steps:  # the step must keep off the obstacles left out
+            ahead = fns.advance(q, dq, d.u, d.s, ext, p, dt)
+            if active.first_unsafe(np.vstack([q, ahead[0]])) < 2:
+                retries += 1
+                if retries > len(active.obstacles):
+                    raise CrowdedError(*active.stuck())
+                p = active.choose(p, np.vstack([q, ahead[0]]))
+                k -= 1  # the same sample again with the new choice
+                continue
+            retries = 0
         u, s = d.u, d.s
         if not d.feasible:
             infeasible_samples += 1
@@ -235,7 +260,7 @@ def _run(
                 break
         if k == steps:
             break
-        q, dq = fns.advance(q, dq, u, s, ext, p, dt)
+        q, dq = fns.advance(q, dq, u, s, ext, p, dt) if ahead is None else ahead
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
             status = Status.DIVERGED
             message = divergence.message(t + dt, dq, ddq, opt.coordinates, None)
@@ -248,6 +273,8 @@ def _run(
         "min_perturbation_scale": s_min,
         "chunked_samples": chunked,
     }
+    if active is not None:
+        info["slot_choices"] = active.choices
     return finish(rows, status, message, infeasible_samples, infeasible_first, info, opt)
 
 

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mmplan.planners.extended_jacobian.active import ActiveSlots
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.rollout import RolloutResult, rollout
@@ -57,16 +58,19 @@ def rollout_time_scaled(
     p: Array,
     opt: RolloutOptions,
     switch: PartitionSwitch | None = None,
+    active: ActiveSlots | None = None,
 ) -> RolloutResult:
     """Unconstrained generator path, then its time-optimal scaling under the torque zone (with
     torque control) and the rate limits (when the robot has them), from rest (w_0 = 0).
+    ``active``: as :func:`~mmplan.planners.extended_jacobian.rollout.rollout`'s.
 
     The efforts' split (T_m, gravity) does not depend on the partition, so ``fns`` serves the
     scaling even when the rollout switched partitions.
     """
     free = rollout(
-        fns, pfaffian, winv, q0, p, dataclasses.replace(opt, torque_control=False), switch
-    )
+        fns, pfaffian, winv, q0, p, dataclasses.replace(opt, torque_control=False), switch,
+        active=active,
+    )  # fmt: skip
     return scale_path(free, fns, opt, time_mode=True)
 
 
