@@ -96,7 +96,7 @@ def test_the_gap_bounds_the_clearance_from_below() -> None:
     rng = np.random.default_rng(7)
     centres = rng.uniform([-3.0, -3.0, -0.5], [3.0, 4.0, 1.5], size=(400, 1, 3))
     pts = centres + rng.uniform(-0.3, 0.3, size=(1, len(robot.collision), 3))  # robot-like
-    g = active.gaps(pts, range(len(models)))
+    g = active.gaps(pts, np.zeros((len(pts), robot.n)), range(len(models)))
     for o, model in enumerate(models):
         C = model.radial_distance(pts.reshape(-1, 3)).reshape(pts.shape[:2])
         true = (C - robot.collision_radii[None, :]).min(axis=1) - 0.2

@@ -20,16 +20,16 @@ tested). A step's Runge-Kutta stages are evaluated between its two states, so an
 counts as safe at a state only with the margin ``2 m + MARGIN``, where m is the largest
 displacement of a sphere over a step of the stretch checked.
 
-How it runs (:mod:`~mmplan.planners.extended_jacobian.rollout`,
-:mod:`~mmplan.planners.extended_jacobian.chunks`): at the start the slots take, per shape type,
-the obstacles nearest to the robot's spheres. After each compiled chunk (and each single
-step) the states it produced are checked against the obstacles left out: the chunk is cut
-before the first state where one of them is within its margin, that obstacle is flagged, and
-the slots are chosen again there (the flagged obstacles and every obstacle within the margin
-first, then the nearest); a single step is taken again with the new choice. When more
-obstacles of a type are within the margin at once than the library has slots,
-:class:`CrowdedError` is raised and the planner uses a library with the scene's own slots (a
-compile when there is none: the only case left where an obstacle count compiles).
+How it runs (the choice: :mod:`mmplan.planners.near_slots`; here the geometry and p): at the
+start the slots take, per shape type, the obstacles nearest to the robot's spheres. After
+each compiled chunk (:mod:`~mmplan.planners.extended_jacobian.chunks`) and each single step
+(:mod:`~mmplan.planners.extended_jacobian.rollout`) the states it produced are checked
+against the obstacles left out: the chunk is cut before the first state where one of them is
+within its margin, that obstacle is flagged, and the slots are chosen again there; a single
+step is taken again with the new choice. When more obstacles of a type are within the margin
+at once than the library has slots, ``CrowdedError`` is raised and the planner uses a library
+with the scene's own slots (a compile when there is none: the only case left where an
+obstacle count compiles).
 
 Cost: the check evaluates the compiled collision points at every state of a chunk; measured
 (``python bench/bench_active_slots.py``, warm, 9 alternated pairs) the paper scene with 3 and
@@ -40,7 +40,7 @@ a library holding every obstacle (+1 %), the same samples; a new process planned
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from typing import Any
 
 import numpy as np
@@ -48,28 +48,18 @@ import numpy as np
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.parameters import (
     ParameterLayout,
-    Shape,
     park_slot,
     put_slot,
     shape_of,
 )
+from mmplan.planners.near_slots import CrowdedError, NearSlots
 
-#: Distance [m] an obstacle left out of the slots keeps beyond its neighbourhood, besides
-#: twice the largest step of a sphere (module docstring).
-MARGIN = 0.01
-
-
-class CrowdedError(Exception):
-    """More obstacles of a shape type near the robot at once than the library has slots."""
-
-    def __init__(self, shape: Shape, near: int, slots: int) -> None:
-        super().__init__(f"{near} obstacles with exponents {shape} near at once, {slots} slots")
-        self.shape, self.near, self.slots = shape, near, slots
+__all__ = ["ActiveSlots", "CrowdedError"]
 
 
-class ActiveSlots:
+class ActiveSlots(NearSlots):
     """Which of a scene's obstacles the slots of p hold, chosen along a rollout (module
-    docstring). One instance serves one rollout at a time (:meth:`start` resets it).
+    docstring).
 
     Args:
         robot: The robot (its collision spheres).
@@ -80,43 +70,19 @@ class ActiveSlots:
     def __init__(
         self, robot: Any, layout: ParameterLayout, obstacles: Sequence[tuple[Any, float]]
     ) -> None:
-        self.robot = robot
+        self.starts = layout.starts()
+        capacity: dict[Hashable, int] = {e: len(at) for e, at in self.starts.items()}
+        super().__init__(robot, [shape_of(m) for m, _ in obstacles], capacity)
         self.obstacles = list(obstacles)
-        self.slots = layout.starts()
-        shapes = [shape_of(m) for m, _ in self.obstacles]
-        missing = sorted({e for e in shapes if not self.slots.get(e)})
-        if missing:
-            raise ValueError(f"no slot for obstacles with exponents {missing}")
-        self.kinds = {e: [i for i, k in enumerate(shapes) if k == e] for e in self.slots}
-        self.center = np.array([m.center for m, _ in self.obstacles], dtype=float).reshape(-1, 3)
-        self.semi = np.array([m.semi_axes for m, _ in self.obstacles], dtype=float).reshape(-1, 3)
-        yaw = np.array([float(getattr(m, "yaw", 0.0)) for m, _ in self.obstacles])
+        self.center = np.array([m.center for m, _ in obstacles], dtype=float).reshape(-1, 3)
+        self.semi = np.array([m.semi_axes for m, _ in obstacles], dtype=float).reshape(-1, 3)
+        yaw = np.array([float(getattr(m, "yaw", 0.0)) for m, _ in obstacles])
         self.cos, self.sin = np.cos(yaw), np.sin(yaw)
-        self.delta = np.array([float(d) for _, d in self.obstacles])
-        self.radii = np.asarray(robot.collision_radii, dtype=float)
-        self.chosen: frozenset[int] = frozenset()
-        self.flagged: set[int] = set()
-        self.margin = MARGIN
-        self.choices = 0
+        self.delta = np.array([float(d) for _, d in obstacles])
 
-    @property
-    def needed(self) -> tuple[tuple[Shape, int], ...]:
-        """The slots a library needs to hold every obstacle (the scene's own count)."""
-        return tuple((e, len(idx)) for e, idx in sorted(self.kinds.items()) if idx)
-
-    def points(self, Q: Array) -> Array:
-        """Collision sphere centres at the states Q (M, n): (M, P, 3)."""
-        Q = np.ascontiguousarray(np.atleast_2d(Q)[:, : self.robot.n], dtype=float)
-        M, P = len(Q), len(self.radii)
-        natives = self.robot.compiled()
-        if natives is not None:
-            return np.asarray(natives.many("collision_points", Q), dtype=float).reshape(M, P, 3)
-        fn = self.robot.functions["collision_points"].map(M)
-        return np.asarray(fn(Q.T), dtype=float).T.reshape(M, P, 3)
-
-    def gaps(self, C: Array, which: Sequence[int]) -> Array:
-        """gap_o (module docstring) of the obstacles ``which`` at each state of the sphere
-        centres C (M, P, 3): the smallest over the spheres, (M, len(which))."""
+    def gaps(self, C: Array, Q: Array, which: Sequence[int]) -> Array:
+        """gap_o = box distance - radius - delta (module docstring) of the obstacles
+        ``which``, the smallest over the spheres C (M, P, 3): (M, len(which))."""
         idx = np.asarray(which, dtype=int)
         d = C[:, :, None, :] - self.center[idx]  # (M, P, W, 3)
         c, s = self.cos[idx], self.sin[idx]
@@ -127,59 +93,14 @@ class ActiveSlots:
         dist = np.sqrt(np.sum(excess * excess, axis=-1)) - self.radii[None, :, None]
         return np.asarray(dist.min(axis=1) - self.delta[idx], dtype=float)
 
-    def start(self, p: Array, q: Array) -> Array:
-        """p with the slots' first choice at the start q (a copy); resets the choice."""
-        self.chosen, self.flagged, self.margin, self.choices = frozenset(), set(), MARGIN, 0
-        return self.choose(p, np.atleast_2d(q))
-
-    def choose(self, p: Array, Q: Array) -> Array:
-        """p (a copy) with the slots chosen for the states Q (M, n) (module docstring).
-
-        Raises:
-            CrowdedError: more obstacles of a type flagged or within the margin than slots.
-        """
-        p = np.array(p, dtype=float)
-        g = self.gaps(self.points(Q), range(len(self.obstacles))).min(axis=0)
-        chosen: list[int] = []
-        for e, idx in self.kinds.items():
-            starts = self.slots[e]
-            must = [i for i in idx if i in self.flagged or g[i] <= self.margin]
-            if len(must) > len(starts):
-                raise CrowdedError(e, len(must), len(starts))
-            rest = sorted((i for i in idx if i not in must), key=lambda i: (g[i], i))
-            mine = sorted(must + rest[: len(starts) - len(must)])  # the scene's order
-            chosen += mine
+    def write(self, p: Array, chosen: dict[Hashable, list[int]]) -> Array:
+        """p whose slots hold the chosen obstacles (parameters.py's numbers), the rest parked."""
+        for e, starts in self.starts.items():
+            mine = chosen.get(e, [])
             for j, at in enumerate(starts):
                 if j < len(mine):
                     model, delta = self.obstacles[mine[j]]
                     put_slot(p, at, model, delta)
                 else:
                     park_slot(p, at)
-        self.chosen, self.flagged = frozenset(chosen), set()
-        self.choices += 1
         return p
-
-    def stuck(self) -> tuple[Shape, int, int]:
-        """:class:`CrowdedError`'s arguments for the type of a flagged obstacle: the choice keeps
-        missing one (the caller gave up choosing again)."""
-        i = min(self.flagged) if self.flagged else 0
-        e = shape_of(self.obstacles[i][0])
-        near = len(self.chosen & set(self.kinds[e])) + len(self.flagged & set(self.kinds[e]))
-        return e, near, len(self.slots[e])
-
-    def first_unsafe(self, Q: Array) -> int:
-        """Index of the first state of Q (M, n), consecutive states of the rollout, at which
-        an obstacle left out of the slots is within its margin (M when none); flags it."""
-        out = [i for i in range(len(self.obstacles)) if i not in self.chosen]
-        if not out:
-            return len(Q)
-        C = self.points(Q)
-        step = np.sqrt(np.sum(np.diff(C, axis=0) ** 2, axis=-1)).max() if len(C) > 1 else 0.0
-        self.margin = 2.0 * float(step) + MARGIN
-        g = self.gaps(C, out)
-        hit = np.flatnonzero((g <= self.margin).any(axis=1))
-        if not hit.size:
-            return len(Q)
-        first = int(hit[0])
-        self.flagged |= {out[j] for j in np.flatnonzero(g[first] <= self.margin)}
-        return first

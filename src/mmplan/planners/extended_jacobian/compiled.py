@@ -25,6 +25,7 @@ from typing import Any
 import casadi as ca
 
 from mmplan.compile import codegen as cg
+from mmplan.compile import family as cf
 from mmplan.compile.fingerprint import python_files, robot_fingerprint, source_fingerprint
 from mmplan.planners.extended_jacobian.functions import GeneratorFunctions, LazyFunction
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout, Shape
@@ -90,70 +91,26 @@ def family_key(robot: Any, settings: Sequence[Any]) -> str:
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
 
 
-def _family_path(family: str) -> Path:
-    return cg.cache_dir() / f"ej_family_{family}.json"
-
-
-def _family(family: str) -> dict[str, Any]:
-    try:
-        data = json.loads(_family_path(family).read_text())
-        return data if isinstance(data, dict) else {}
-    except (OSError, ValueError):
-        return {}
+#: File-name prefix of the family lists (:mod:`mmplan.compile.family`).
+FAMILY = "ej_family"
 
 
 def remember(family: str, slots: Sequence[tuple[Shape, int]], key: str) -> None:
-    """List the library ``key`` (these slots) among its family's (atomic write; two processes
-    writing at once may drop one entry: that library is then only found by its own key)."""
-    entries = _family(family)
-    entries[key] = [[list(e), k] for e, k in slots]
-    path = _family_path(family)
-    try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as out:
-            json.dump(entries, out)
-        os.replace(tmp, path)
-    except OSError:
-        pass
+    """List the library ``key`` (these slots) among its family's."""
+    cf.remember(FAMILY, family, slots, key)
 
 
-def wider(
-    family: str, slots: Sequence[tuple[Shape, int]]
-) -> list[tuple[str, tuple[tuple[Shape, int], ...]]]:
-    """Keys and slots of the family's libraries with at least ``slots``' slots of each shape
-    type (more slots or more types: unused slots are parked), the fewest slots first."""
-    need = dict(slots)
-    found: list[tuple[int, str, tuple[tuple[Shape, int], ...]]] = []
-    for key, have in _listed(family):
-        if all(dict(have).get(e, 0) >= k for e, k in need.items()):
-            found.append((sum(k for _, k in have), key, have))
-    return [(key, have) for _, key, have in sorted(found)]
+def wider(family: str, slots: Sequence[tuple[Shape, int]]) -> list[tuple[str, Any]]:
+    """Libraries with at least ``slots``' slots of each shape type, the fewest first
+    (:func:`mmplan.compile.family.wider`)."""
+    return cf.wider(FAMILY, family, slots)
 
 
-def covering(
-    family: str, slots: Sequence[tuple[Shape, int]]
-) -> list[tuple[str, tuple[tuple[Shape, int], ...]]]:
-    """Keys and slots of the family's libraries with a slot of every shape type of ``slots``
-    but fewer slots of some (the near obstacles in the slots:
-    :mod:`~mmplan.planners.extended_jacobian.active`), the most slots of those types first."""
-    need = dict(slots)
-    found: list[tuple[int, str, tuple[tuple[Shape, int], ...]]] = []
-    for key, have in _listed(family):
-        mine = dict(have)
-        if all(mine.get(e, 0) >= 1 for e in need) and any(mine[e] < k for e, k in need.items()):
-            found.append((-sum(min(mine[e], k) for e, k in need.items()), key, have))
-    return [(key, have) for _, key, have in sorted(found)]
-
-
-def _listed(family: str) -> list[tuple[str, tuple[tuple[Shape, int], ...]]]:
-    """The family's libraries and their slots (entries that do not parse skipped)."""
-    out = []
-    for key, listed in _family(family).items():
-        try:
-            out.append((key, tuple(((float(e[0]), float(e[1])), int(k)) for e, k in listed)))
-        except (TypeError, ValueError, IndexError):
-            continue
-    return out
+def covering(family: str, slots: Sequence[tuple[Shape, int]]) -> list[tuple[str, Any]]:
+    """Libraries with a slot of every shape type of ``slots`` but fewer of some, the most
+    first (:func:`mmplan.compile.family.covering`; the near obstacles in the slots:
+    :mod:`~mmplan.planners.extended_jacobian.active`)."""
+    return cf.covering(FAMILY, family, slots)
 
 
 def _external(name: str, library: str) -> ca.Function:

@@ -44,7 +44,7 @@ from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import chunks as ej_fastpath
 from mmplan.planners.extended_jacobian import divergence
-from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError
+from mmplan.planners.extended_jacobian.active import ActiveSlots
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
@@ -222,8 +222,8 @@ def _run(
             ahead = fns.advance(q, dq, d.u, d.s, ext, p, dt)
             if active.first_unsafe(np.vstack([q, ahead[0]])) < 2:
                 retries += 1
-                if retries > len(active.obstacles):
-                    raise CrowdedError(*active.stuck())
+                if retries > active.count:
+                    raise active.stuck()
                 p = active.choose(p, np.vstack([q, ahead[0]]))
                 k -= 1  # the same sample again with the new choice
                 continue
