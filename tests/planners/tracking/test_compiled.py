@@ -132,8 +132,9 @@ def test_a_compiled_tracker_is_loaded_without_building_its_model(
 
     loaded = compiled.functions(("pinv_step", "task_jacobian"), problem.robot, settings, slots,
                                 problem.scene.ground, lambda: [])  # fmt: skip
+    assert loaded is not None and loaded.slots == slots
     model = WeightedPseudoinverse(problem.robot, problem.scene.obstacles, settings,
-                                  problem.scene.ground, slots, loaded)  # fmt: skip
+                                  problem.scene.ground, slots, loaded.functions)  # fmt: skip
     q = np.asarray(problem.start, dtype=float)
     assert builds == []
     z = np.asarray(model.null_vector(q), dtype=float)  # built now, once

@@ -29,7 +29,7 @@ switches the impedance off.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import casadi as ca
 import numpy as np
@@ -166,20 +166,31 @@ class VirtualImpedance:
 
 
 def platform_distances(
-    model: VirtualImpedance, task: TrackPath, t: Array, q: Array
+    model: VirtualImpedance,
+    task: TrackPath,
+    t: Array,
+    q: Array,
+    distance: Callable[[Array], Array] | None = None,
 ) -> dict[str, float]:
     """Horizontal platform-centre distances to the nearest obstacle surface [m].
 
     ``min_platform_obstacle_distance_m`` is the minimum over the run;
     ``platform_obstacle_distance_at_pass_m`` is the distance at the pass: the time at which
     the undisturbed platform reference comes closest to an obstacle (the measure [RefRuns]
-    compares with and without impedance).
+    compares with and without impedance). ``distance``: states (N, n) -> the nearest
+    obstacle's horizontal distance (N,), for a scene the model's parameters do not hold
+    whole (:mod:`.active`); default: the model's force function.
     """
-    distance = model.force.map(len(q))
-    actual = np.asarray(distance(q.T)[1], dtype=float).ravel()
+    if distance is None:
+        mapped = model.force.map(len(q))
+
+        def distance(x: Array) -> Array:
+            return np.asarray(mapped(x.T)[1], dtype=float).ravel()
+
+    actual = distance(q)
     q_ref = q.copy()
     q_ref[:, :2] = np.array([model.reference(task, float(s))[6:8] for s in t])
-    reference = np.asarray(distance(q_ref.T)[1], dtype=float).ravel()
+    reference = distance(q_ref)
     k = int(np.argmin(reference))
     return {
         "min_platform_obstacle_distance_m": float(actual.min()),

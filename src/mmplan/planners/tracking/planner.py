@@ -10,17 +10,25 @@ Both compile one control step and roll it along the path with :func:`.result.tra
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.compile import codegen as cg
 from mmplan.planners.base import Planner, register
 from mmplan.planners.tracking import compiled
+from mmplan.planners.tracking.active import CrowdedError, TrackerSlots
 from mmplan.planners.tracking.impedance import VirtualImpedance, platform_distances
 from mmplan.planners.tracking.pseudoinverse import WeightedPseudoinverse
 from mmplan.planners.tracking.result import track
+from mmplan.planners.tracking.rollout import Rollout
 from mmplan.planners.tracking.settings import ImpedanceSettings, PseudoinverseSettings
 from mmplan.planners.tracking.slots import Slots
 from mmplan.problem import Problem, Progress
+from mmplan.robot.robot import Robot
+from mmplan.scene.obstacle import Obstacle
 from mmplan.task import TrackPath
 from mmplan.trajectory import Solution
 
@@ -37,18 +45,34 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start``."""
+        try:
+            return self._track(problem, settings, task, progress, exact=False)
+        except CrowdedError as crowd:  # more obstacles near at once than the library's slots
+            cg.notice(f"{crowd}: a step with the scene's slots")
+            return self._track(problem, settings, task, progress, exact=True)
+
+    @staticmethod
+    def _track(
+        problem: Problem,
+        settings: PseudoinverseSettings,
+        task: TrackPath,
+        progress: Progress,
+        exact: bool,
+    ) -> Solution:
         robot, scene = problem.robot, problem.scene
         slots = Slots.of(scene.obstacles)
         obstacles, ground = scene.obstacles, scene.ground
         loaded = compiled.functions(
             ("pinv_step", "task_jacobian"), robot, settings, slots, ground,
             lambda: WeightedPseudoinverse(robot, obstacles, settings, ground, slots)
-            .library_functions(),
+            .library_functions(), exact,
         )  # fmt: skip
+        active = _active(loaded, robot, obstacles, settings.d0, None)
         # without the compiled library the numbers are built in (faster on the VM: 64.7
         # against 86.4 ms a plan with them as parameters, a review's measurement)
         model = WeightedPseudoinverse(
-            robot, obstacles, settings, ground, slots if loaded else None, loaded
+            robot, () if active else obstacles, settings, ground,
+            loaded.slots if loaded else None, loaded.functions if loaded else None,
         )  # fmt: skip
         step, backend = model.step, "vm" if loaded is None else "c"
 
@@ -64,8 +88,10 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
             reference,
             model.smallest_singular_value,
             progress,
-            lambda run: {"weights": [float(v) for v in model.w], "backend": backend},
+            lambda run: {"weights": [float(v) for v in model.w], "backend": backend,
+                         **({"slot_choices": active.choices} if active else {})},
             model.params,
+            active,
         )
 
 
@@ -81,6 +107,20 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start`` (plus the two impedance filter states)."""
+        try:
+            return self._track(problem, settings, task, progress, exact=False)
+        except CrowdedError as crowd:  # more obstacles near at once than the library's slots
+            cg.notice(f"{crowd}: a step with the scene's slots")
+            return self._track(problem, settings, task, progress, exact=True)
+
+    @staticmethod
+    def _track(
+        problem: Problem,
+        settings: ImpedanceSettings,
+        task: TrackPath,
+        progress: Progress,
+        exact: bool,
+    ) -> Solution:
         robot, scene = problem.robot, problem.scene
         slots = Slots.of(scene.obstacles)
         obstacles, ground = tuple(scene.obstacles), scene.ground
@@ -88,12 +128,26 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
             ("impedance_step", "task_matrix", "impedance_force_p"), robot, settings, slots,
             ground,
             lambda: VirtualImpedance(robot, obstacles, settings, ground, slots)
-            .library_functions(),
+            .library_functions(), exact,
         )  # fmt: skip
-        model = VirtualImpedance(robot, obstacles, settings, ground, slots if loaded else None,
-                                 loaded)  # fmt: skip
+        active = _active(loaded, robot, obstacles, settings.d_max, settings.d_min)
+        model = VirtualImpedance(
+            robot, () if active else obstacles, settings, ground,
+            loaded.slots if loaded else None, loaded.functions if loaded else None,
+        )  # fmt: skip
         step, backend = model.step, "vm" if loaded is None else "c"
         state0 = np.concatenate([np.asarray(problem.start, dtype=float), np.zeros(2)])
+
+        def nearest(q: Array) -> Array:  # every obstacle's, when p holds only the near ones
+            assert active is not None
+            return np.asarray(active.horizontal(q, range(active.count)).min(axis=1))
+
+        def info(run: Rollout) -> dict[str, Any]:
+            near = nearest if active else None
+            found = platform_distances(model, task, run.t, run.q, near) if scene.obstacles else {}
+            return {**found, "backend": backend,
+                    **({"slot_choices": active.choices} if active else {})}
+
         return track(
             problem,
             settings,
@@ -103,9 +157,21 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
             lambda t: model.reference(task, t),
             model.smallest_singular_value,
             progress,
-            lambda run: {
-                **(platform_distances(model, task, run.t, run.q) if scene.obstacles else {}),
-                "backend": backend,
-            },
+            info,
             model.params,
+            active,
         )
+
+
+def _active(
+    loaded: compiled.Loaded | None,
+    robot: Robot,
+    obstacles: Sequence[Obstacle],
+    influence: float,
+    platform: float | None,
+) -> TrackerSlots | None:
+    """The choice of the near obstacles when the library has fewer slots of a kind than the
+    scene has obstacles (:mod:`.active`), else None."""
+    if loaded is None or loaded.slots.accepts(obstacles):
+        return None
+    return TrackerSlots(robot, loaded.slots, obstacles, influence, platform)

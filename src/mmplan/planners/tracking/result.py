@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.planners.tracking.active import TrackerSlots
 from mmplan.planners.tracking.rollout import Rollout, StopRules, rollout
 from mmplan.planners.tracking.settings import TrackingSettings
 from mmplan.problem import Problem, Progress
@@ -133,12 +134,14 @@ def track(
     progress: Progress,
     info: Callable[[Rollout], Mapping[str, Any]] = lambda run: {},
     params: Array | None = None,
+    active: TrackerSlots | None = None,
 ) -> Solution:
     """Roll a compiled tracking step along ``task`` and finish the result.
 
     Shared by both trackers: the horizon is min(path duration, t_max) at ``settings.dt``;
     ``info(run)`` adds method-specific numbers; ``params``: the step's parameters (the
-    obstacles' numbers, :mod:`.slots`).
+    obstacles' numbers, :mod:`.slots`); ``active``: which obstacles p holds, chosen along the
+    run (:mod:`.active`).
     """
     t_end = min(task.duration, settings.t_max)
     steps = math.ceil(t_end / settings.dt - 1e-9)  # t[-1] covers t_end
@@ -153,6 +156,7 @@ def track(
         exact_sigma,
         progress,
         params,
+        active,
     )
     return finish(
         run,

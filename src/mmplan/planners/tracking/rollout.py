@@ -33,10 +33,14 @@ import casadi as ca
 import numpy as np
 
 from mmplan.arrays import Array
+from mmplan.planners.tracking.active import TrackerSlots
 from mmplan.planners.tracking.settings import TrackingSettings
 from mmplan.problem import Progress
 from mmplan.robot.robot import Robot
 from mmplan.trajectory import Status
+
+#: Steps between the checks of the obstacles left out of the slots (:func:`rollout`).
+BLOCK = 50
 
 
 @dataclass(frozen=True)
@@ -200,6 +204,7 @@ def rollout(
     exact_sigma: Callable[[Array], float],
     progress: Progress = None,
     params: Array | None = None,
+    active: TrackerSlots | None = None,
 ) -> Rollout:
     """Run ``steps + 1`` control steps from ``state0`` (samples at t = k dt, k = 0..steps).
 
@@ -215,6 +220,11 @@ def rollout(
             bound falls below the threshold.
         progress: Optional callback with the fraction done.
         params: The step's parameters p (last in its input; :func:`compile_step`).
+        active: The scene has more obstacles than the step's slots: which ones p holds is
+            chosen along the run (:mod:`.active`; p's slots are chosen again at the start).
+
+    Raises:
+        CrowdedError: more obstacles of a kind near at once than slots (only with ``active``).
     """
     n, ns = robot.n, len(state0)
     tail = np.zeros(0) if params is None else np.asarray(params, dtype=float)
@@ -229,27 +239,51 @@ def rollout(
     every = max(1, steps // 100)
     call = BufferedStep(step)
     r_next = reference(0.0)
-    k = 0
-    for k in range(steps + 1):
+    # more obstacles than slots (active.py): the states since ``base`` are checked against
+    # the obstacles left out every BLOCK steps and at the end; the run goes back to the last
+    # state whose step kept away from them
+    states = np.zeros((steps + 1, ns)) if active is not None else None
+    if active is not None:
+        tail = active.start(tail, state[:n])
+    base, retries, k = 0, 0, 0
+    while k <= steps:
         t = k * dt
         r_now, r_next = r_next, reference((k + 1) * dt)
         out = call(np.concatenate([state, r_now, r_next, tail])).copy()
+        stop: tuple[Status, str] | None = None
         if not np.isfinite(out).all():
-            status, message = Status.DIVERGED, f"non-finite velocity at t = {t:.3f} s"
-            break
-        aux = out[ns + n : ns + n + 6]
-        e0 = aux[3] if k == 0 else e0
-        stop = rules.verdict(t, state, aux, e0, robot, exact_sigma)
+            stop = Status.DIVERGED, f"non-finite velocity at t = {t:.3f} s"
+        else:
+            aux = out[ns + n : ns + n + 6]
+            e0 = aux[3] if k == 0 else e0
+            stop = rules.verdict(t, state, aux, e0, robot, exact_sigma)
+        if stop is None:
+            q[k], dq[k], ee[k] = state[:n], out[ns : ns + n], out[ns + n : ns + n + 3]
+            scal[k] = out[ns + n + 3 : ns + n + 6]
+            if states is not None:
+                states[k] = state
+            state = out[:ns]
+            if progress is not None and k % every == 0:
+                progress(k / max(steps, 1))
+            k += 1
+        if active is not None and states is not None and (
+            stop is not None or k - base >= BLOCK or k > steps
+        ):
+            v = active.first_unsafe(np.vstack([q[base:k], state[None, :n]]))  # states base..k
+            if v <= k - base:  # back to the last state before it, the slots chosen there
+                keep = max(base + v - 1, base)
+                retries = retries + 1 if keep == base else 0
+                if retries > active.count:
+                    raise active.stuck()
+                state = states[keep].copy() if keep < k else state
+                tail = active.choose(tail, state[None, :n])
+                k = base = keep
+                r_next = reference(k * dt)
+                continue
+            base, retries = k, 0
         if stop is not None:
             status, message = stop
             break
-        q[k], dq[k], ee[k] = state[:n], out[ns : ns + n], out[ns + n : ns + n + 3]
-        scal[k] = out[ns + n + 3 : ns + n + 6]
-        state = out[:ns]
-        if progress is not None and k % every == 0:
-            progress(k / max(steps, 1))
-    else:
-        k = steps + 1
     m = max(k, 1)
     if k == 0:  # stopped at the very first sample: keep the start at rest
         q[0], ee[0] = np.asarray(state0, dtype=float)[:n], robot.ee_position(np.asarray(state0)[:n])
