@@ -153,3 +153,24 @@ def test_the_gap_is_zero_where_a_term_starts() -> None:
     clearance = float(np.min(post.distance(C[0]) - robot.collision_radii))
     got = platform.gaps(C, q[None], [0])[0, 0]
     assert got == pytest.approx(min(horizontal, clearance), abs=1e-12)
+
+
+def test_fewer_obstacles_use_a_wider_library_to_the_bit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """After a scene with 4 posts compiled 4 cylinder slots, the scenario's own scene (one
+    post) runs that library, its unused slots parked and switched off: no compile, the same
+    samples as with a library of its own (compiled after, for the comparison)."""
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    compiles = _compiles(monkeypatch)
+    name = "diffdrive3-track"
+    _plan(_with(name, ((1.0, 0.6, 0.15), (3.0, -0.55, 0.15), (1.5, 3.0, 0.2))))
+    compiles[0] = 0
+    wide = _plan(_with(name, ()))
+    assert compiles[0] == 0 and wide.status.value == "reached"
+    for listed in tmp_path.glob("track_family_*.json"):
+        listed.unlink()  # its own library now compiles
+    own = _plan(_with(name, ()))
+    assert compiles[0] >= 1
+    np.testing.assert_array_equal(wide.trajectory.q, own.trajectory.q)
+    np.testing.assert_array_equal(wide.trajectory.dq, own.trajectory.dq)
