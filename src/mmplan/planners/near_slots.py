@@ -39,7 +39,7 @@ class CrowdedError(Exception):
     """More obstacles of a kind near the robot at once than the function has slots."""
 
     def __init__(self, kind: Hashable, near: int, slots: int) -> None:
-        super().__init__(f"{near} obstacles of kind {kind} near at once, {slots} slots")
+        super().__init__(f"{near} {kind} obstacles near at once, {slots} slots")
         self.kind, self.near, self.slots = kind, near, slots
 
 
@@ -78,6 +78,10 @@ class NearSlots:
         """p (a copy) whose slots hold the obstacles ``chosen`` per kind (in scene order)."""
         raise NotImplementedError
 
+    def label(self, kind: Hashable) -> str:
+        """How messages name a kind."""
+        return str(kind)
+
     def points(self, Q: Array) -> Array:
         """Collision sphere centres at the states Q (M, n): (M, P, 3)."""
         Q = np.ascontiguousarray(np.atleast_2d(Q)[:, : self.robot.n], dtype=float)
@@ -108,7 +112,7 @@ class NearSlots:
             room = self.capacity[kind]
             must = [i for i in idx if i in self.flagged or g[i] <= self.margin]
             if len(must) > room:
-                raise CrowdedError(kind, len(must), room)
+                raise CrowdedError(self.label(kind), len(must), room)
             rest = sorted((i for i in idx if i not in must), key=lambda i: (g[i], i))
             chosen[kind] = sorted(must + rest[: room - len(must)])  # the scene's order
         self.chosen = frozenset(i for mine in chosen.values() for i in mine)
@@ -122,7 +126,8 @@ class NearSlots:
         i = min(self.flagged) if self.flagged else 0
         kind = next(k for k, idx in self.kinds.items() if i in idx)
         mine = set(self.kinds[kind])
-        return CrowdedError(kind, len((self.chosen | self.flagged) & mine), self.capacity[kind])
+        near = len((self.chosen | self.flagged) & mine)
+        return CrowdedError(self.label(kind), near, self.capacity[kind])
 
     def first_unsafe(self, Q: Array) -> int:
         """Index of the first state of Q (M, n), consecutive states of the run, at which an

@@ -23,7 +23,7 @@ import numpy as np
 from mmplan import linalg
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian import divergence
-from mmplan.planners.extended_jacobian.active import ActiveSlots
+from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError
 from mmplan.planners.extended_jacobian.generator import GeneratorFunctions
 from mmplan.planners.extended_jacobian.options import RolloutOptions
 from mmplan.planners.extended_jacobian.samples import SampleLog
@@ -60,7 +60,8 @@ def usable(fns: GeneratorFunctions, opt: RolloutOptions, k: int, steps: int, t_f
 @dataclass(frozen=True)
 class Chunk:
     """Outcome of :func:`run`: accepted samples m, cond(E) at the first, the state at k + m,
-    the virtual control u of the last accepted sample and the smallest perturbation scale."""
+    the virtual control u of the last accepted sample, the smallest perturbation scale and the
+    parameters p (their slots chosen again when obstacles left out came near)."""
 
     m: int
     cond: float
@@ -68,6 +69,7 @@ class Chunk:
     dq: Array
     u: float
     s_min: float
+    p: Array
 
 
 def run(
@@ -89,45 +91,66 @@ def run(
     ``wants_switch(q, cond(E), E)``: a partition switch is wanted at the chunk's start (the loop
     then decides that sample; None: no switch possible). ``steps``: the run's last sample (the
     next chunk is guessed only when it may run, :func:`usable`). ``active``: the scene has more
-    obstacles than slots; the chunk is cut before a state near one left out
-    (:mod:`~mmplan.planners.extended_jacobian.active`).
+    obstacles than slots (:mod:`~mmplan.planners.extended_jacobian.active`): when a state of the
+    chunk comes near an obstacle left out, the slots are chosen for the chunk's states and the
+    chunk runs again (the chunks fall where they fall with every obstacle in a slot, so the
+    samples are the same to the bit); when the chunk's states are near more obstacles of a type
+    than slots, the chunk is cut before that state instead (the loop's samples from there equal
+    the chunk's to rounding).
     """
     n, a, dt = fns.n, fns.n_act, opt.dt
-    if opt.torque_control:
-        chunk = ej_feedback.feedback_chunk(fns, opt)
-        assert chunk is not None
-        x0 = np.concatenate([q, dq, [u, 1.0 if k == 0 else 0.0]])
-        XU, RU = (np.asarray(v).T for v in chunk(x0, np.concatenate([p, [dt]])))
-        X, R, us, ss, ok = XU[:, : 2 * n], RU, RU[:, n + a + 2], RU[:, n + a + 3], RU[:, -1]
-    else:
-        # the chunks after this one that may run (each ends by ``steps``) start on a
-        # second core meanwhile
-        ahead = (steps - k) // fns.chunk_steps - 1
+    ahead = (steps - k) // fns.chunk_steps - 1  # later chunks that may run (guessed)
+
+    def compute(p: Array) -> tuple[Array, ...]:
+        """The chunk's states X (K, 2n), records R and u, s, ok per sample."""
+        if opt.torque_control:
+            chunk = ej_feedback.feedback_chunk(fns, opt)
+            assert chunk is not None
+            x0 = np.concatenate([q, dq, [u, 1.0 if k == 0 else 0.0]])
+            XU, RU = (np.asarray(v).T for v in chunk(x0, np.concatenate([p, [dt]])))
+            return XU[:, : 2 * n], RU, RU[:, n + a + 2], RU[:, n + a + 3], RU[:, -1]
+        # the chunks after this one that may run start on a second core meanwhile
         X, R = fns.run_chunk(
             q, dq, 1.0, 1.0, np.zeros(n), p, dt, ahead=ahead, stop_error=opt.stop_error
         )
-        us = ss = ok = np.ones(len(R))
-    ddq, tau, err, flag = R[:, :n], R[:, n : n + a], R[:, n + a], R[:, n + a + 1]
-    K = len(err)
-    kk = k + np.arange(K)
-    t = kk * dt
-    event = ~np.isfinite(flag) | ~np.all(np.isfinite(X), axis=1) | (err < opt.stop_error)
-    states_dq = np.vstack([dq[None, :], X[:-1, n:]])  # dq at each sample
-    event |= divergence.insane(states_dq, ddq)  # the loop ends the run there
-    event |= ok < 0.5
-    history = rows.error(max(0, k - clock.window), k)
-    older = np.concatenate([history, err])  # err at sample kk - window, where kk >= window
-    idx = kk - clock.window - max(0, k - clock.window)
-    wait = clock.escape_until + (opt.stall_window if clock.escapes else 0.0)
-    due = (kk >= clock.window) & (t >= wait)
-    prev = np.where(due, older[np.clip(idx, 0, len(older) - 1)], np.inf)
-    with np.errstate(invalid="ignore"):
-        event |= due & opt.stalled(prev, err)
-    m = int(np.argmax(event)) if event.any() else K
-    if active is not None and m:  # states k .. k + m must keep off the obstacles left out
-        m = min(m, active.first_unsafe(np.vstack([q[None, :], X[:m, :n]])) - 1)
-        m = max(m, 0)
-    none = Chunk(0, 0.0, q, dq, u, 1.0)
+        ones = np.ones(len(R))
+        return X, R, ones, ones, ones
+
+    def accepted(X: Array, R: Array, ok: Array) -> int:
+        """Samples before the first at which the loop must decide."""
+        ddq, err, flag = R[:, :n], R[:, n + a], R[:, n + a + 1]
+        kk = k + np.arange(len(err))
+        event = ~np.isfinite(flag) | ~np.all(np.isfinite(X), axis=1) | (err < opt.stop_error)
+        states_dq = np.vstack([dq[None, :], X[:-1, n:]])  # dq at each sample
+        event |= divergence.insane(states_dq, ddq)  # the loop ends the run there
+        event |= ok < 0.5
+        history = rows.error(max(0, k - clock.window), k)
+        older = np.concatenate([history, err])  # err at sample kk - window, where kk >= window
+        idx = kk - clock.window - max(0, k - clock.window)
+        wait = clock.escape_until + (opt.stall_window if clock.escapes else 0.0)
+        due = (kk >= clock.window) & (kk * dt >= wait)
+        prev = np.where(due, older[np.clip(idx, 0, len(older) - 1)], np.inf)
+        with np.errstate(invalid="ignore"):
+            event |= due & opt.stalled(prev, err)
+        return int(np.argmax(event)) if event.any() else len(err)
+
+    X, R, us, ss, ok = compute(p)
+    m = accepted(X, R, ok)
+    while active is not None and m:  # states k .. k + m must keep off the obstacles left out
+        path = np.vstack([q[None, :], X[:m, :n]])
+        v = active.first_unsafe(path)
+        if v > m:
+            break
+        try:  # the slots chosen for the whole chunk, which runs again: the same schedule
+            p = active.choose(p, path)  # of chunks as with every obstacle in a slot
+        except CrowdedError:  # cut: the loop takes the samples from there (to rounding)
+            m = max(v - 1, 0)
+            break
+        X, R, us, ss, ok = compute(p)
+        m = accepted(X, R, ok)
+    ddq, tau, err = R[:, :n], R[:, n : n + a], R[:, n + a]
+    t = (k + np.arange(len(err))) * dt
+    none = Chunk(0, 0.0, q, dq, u, 1.0, p)
     if m == 0:
         return none
     E0 = fns.chunk_start_E() if not opt.torque_control else None
@@ -151,4 +174,6 @@ def run(
         None if effort is None else effort[:m],
     )
     x_m = X[m - 1]
-    return Chunk(m, cond, x_m[:n].copy(), x_m[n:].copy(), float(us[m - 1]), float(ss[:m].min()))
+    return Chunk(
+        m, cond, x_m[:n].copy(), x_m[n:].copy(), float(us[m - 1]), float(ss[:m].min()), p
+    )

@@ -73,10 +73,14 @@ from mmplan.planners.extended_jacobian.structure import structured_solve
 from mmplan.robot.robot import Robot
 
 #: ``codegen: null`` compiles a generator whose f0, fv (without the obstacle terms, whose
-#: compiled code is culled and shared between slots) take at most this many operations.
-#: Measured: youbot-3r 2.4k, youbot-4r 5.2k (compiled in 5-25 s on a loaded 2-core machine),
-#: ur5-omni 7.6k, TIAGo 25.6k (163 s).
-AUTO_SIZE = 6_000
+#: compiled code is culled and shared between slots) take at most this many operations: a
+#: larger one (a user's robot with many more joints) runs on the virtual machine unless
+#: ``codegen: true``. Measured (2026-11-25, 2-core machine, `mmplan plan` on an empty cache):
+#: youbot-3r 2.4k operations, compiled in 2.6 s; ur5-omni 7.6k, 9.0 s; TIAGo 25.6k, 17-30 s
+#: (163 s in session 8, before the build was cut into units compiled in parallel with the
+#: rarely called code at -O0); TIAGo's plan then computes in 0.022 s against 1.01 s on the
+#: virtual machine (tiago-table), the UR5's in 0.025 against 0.50 s.
+AUTO_SIZE = 30_000
 
 #: Source files whose code shapes the compiled library (part of its cache key).
 _SOURCES = (

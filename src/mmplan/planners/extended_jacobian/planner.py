@@ -137,7 +137,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             try:
                 res = self._run(prep, robot, refined, switch)
             except CrowdedError:  # the finer step came nearer: every obstacle in a slot
-                prep = dataclasses.replace(self._prepare(problem, exact=True), switch=switch)
+                prep = self._prepare(problem, exact=True)  # its own generator and switch
+                switch = dataclasses.replace(prep.switch, partitions=[prep.partition])
                 res = self._run(prep, robot, refined, switch)
             res.info["refined_dt"] = refined.dt
             prep = dataclasses.replace(prep, switch=switch)
@@ -276,7 +277,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         if active is not None:
             try:
                 params = active.start(params, q0)
-            except CrowdedError:
+            except CrowdedError as crowd:
+                cg.notice(f"{crowd}: a generator with the scene's slots")
                 return cls._prepare(problem, guess, exact=True)
         if guess and (not options.torque_control or time_scaling):  # from rest, no feedback:
             # its first chunks start meanwhile (each ends by t_max, as the rollout's)

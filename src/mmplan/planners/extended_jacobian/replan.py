@@ -121,6 +121,7 @@ class Replanner:
             self.robot, partition, slots, s.penalty_weight, s.varrho,
             s.arm_gradient_weight, s.codegen if codegen is None else codegen, self.posture,
             self.heading, notify=cg.notice,  # a first compile says so, as plan() does
+            exact=True,  # its slots (spare ones included) as asked, not a narrower library's
         ).fns  # fmt: skip
 
     def params(

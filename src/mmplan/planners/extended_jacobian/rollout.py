@@ -182,7 +182,9 @@ def _run(
             can_switch = switch is not None and switches < opt.max_switches
             wants = switch.wants if switch is not None and can_switch else None
             c = ej_fastpath.run(fns, q, dq, u, p, k, opt, clock, rows, wants, steps, active)
+            p = c.p
             if c.m:
+                retries = 0
                 max_cond, q, dq, u, k = max(max_cond, c.cond), c.q, c.dq, c.u, k + c.m - 1
                 s_min, chunked = min(s_min, c.s_min), chunked + c.m
                 continue
@@ -218,7 +220,8 @@ def _run(
             ext = _escape_push(escape_dir, q, dq, pfaffian, winv, gain)
         d = decide(out, dq, u, k == 0, ext, opt)
         ahead: tuple[Array, Array] | None = None
-        if active is not None and k < steps:  # the step must keep off the obstacles left out
+        if active is not None and k < steps and err >= opt.stop_error:
+            # the step (not the sample that ends the run) must keep off the obstacles left out
             ahead = fns.advance(q, dq, d.u, d.s, ext, p, dt)
             if active.first_unsafe(np.vstack([q, ahead[0]])) < 2:
                 retries += 1
