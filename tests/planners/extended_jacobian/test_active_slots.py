@@ -7,7 +7,6 @@ Compiles are counted at the C compiler call and symbolic builds at ``build_funct
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +16,6 @@ import pytest
 import mmplan
 from mmplan.compile import codegen
 from mmplan.planners.extended_jacobian import cache as ej_cache
-from mmplan.planners.extended_jacobian import generator as ej_generator
 from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
@@ -28,37 +26,13 @@ from mmplan.scene.cylinder import Cylinder
 from mmplan.scene.scene import Scene
 from mmplan.scene.sphere import Sphere
 from mmplan.verify.check import check
+from tests.planners.extended_jacobian.conftest import Counts
 
 NAME = "youbot3r-obstacles-torque"
 #: Cylinders the paper scene's robot passes near (three slot choices with 2 cylinder slots).
 NEAR = ((2.6, 3.6), (-0.8, 0.2), (3.5, 1.0))
 #: Cylinders crowding the path: three within their neighbourhoods at once.
 CROWD = ((0.9, 1.5), (2.2, 3.3), (2.9, 2.4), (-0.6, 0.3), (0.6, 3.0))
-
-
-@dataclasses.dataclass
-class Counts:
-    compiles: int = 0
-    builds: int = 0
-
-
-@pytest.fixture
-def counts(monkeypatch: pytest.MonkeyPatch) -> Iterator[Counts]:
-    found = Counts()
-    run, build = codegen.subprocess.run, ej_generator.build_functions
-
-    def counted_run(*args: Any, **kwargs: Any) -> Any:
-        found.compiles += 1
-        return run(*args, **kwargs)
-
-    def counted_build(*args: Any, **kwargs: Any) -> Any:
-        found.builds += 1
-        return build(*args, **kwargs)
-
-    monkeypatch.setattr(codegen.subprocess, "run", counted_run)
-    monkeypatch.setattr(ej_cache, "build_functions", counted_build)
-    yield found
-
 
 def _with(extra: tuple[tuple[float, float], ...]) -> Problem:
     base = mmplan.load_scenario(NAME).build()

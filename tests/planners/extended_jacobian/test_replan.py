@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,40 +18,14 @@ import pytest
 import mmplan
 from mmplan.compile import codegen
 from mmplan.planners.extended_jacobian import cache as ej_cache
-from mmplan.planners.extended_jacobian import generator as ej_generator
 from mmplan.planners.extended_jacobian.planner import ExtendedJacobian
 from mmplan.planners.extended_jacobian.replan import Replanner
 from mmplan.scene.scene import Scene
 from mmplan.scene.sphere import Sphere
 from mmplan.task import ReachPoint
+from tests.planners.extended_jacobian.conftest import Counts
 
 EXAMPLE = Path(__file__).parents[3] / "examples" / "replan_moving_obstacle.py"
-
-
-@dataclasses.dataclass
-class Counts:
-    compiles: int = 0
-    builds: int = 0
-
-
-@pytest.fixture
-def counts(monkeypatch: pytest.MonkeyPatch) -> Iterator[Counts]:
-    """Counters of C compiler runs and symbolic generator builds."""
-    found = Counts()
-    run, build = codegen.subprocess.run, ej_generator.build_functions
-
-    def counted_run(*args: Any, **kwargs: Any) -> Any:
-        found.compiles += 1
-        return run(*args, **kwargs)
-
-    def counted_build(*args: Any, **kwargs: Any) -> Any:
-        found.builds += 1
-        return build(*args, **kwargs)
-
-    monkeypatch.setattr(codegen.subprocess, "run", counted_run)
-    monkeypatch.setattr(ej_cache, "build_functions", counted_build)
-    yield found
-
 
 def _compiled(problem: mmplan.Problem) -> mmplan.Problem:
     settings = problem.settings.model_copy(update={"codegen": True})

@@ -10,7 +10,7 @@ Both compile one control step and roll it along the path with :func:`.result.tra
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -45,11 +45,7 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start``."""
-        try:
-            return self._track(problem, settings, task, progress, exact=False)
-        except CrowdedError as crowd:  # more obstacles near at once than the library's slots
-            cg.notice(f"{crowd}: a step with the scene's slots")
-            return self._track(problem, settings, task, progress, exact=True)
+        return _crowded_or_not(self._track, problem, settings, task, progress)
 
     @staticmethod
     def _track(
@@ -107,11 +103,7 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
         progress: Progress,
     ) -> Solution:
         """Track ``task`` from ``problem.start`` (plus the two impedance filter states)."""
-        try:
-            return self._track(problem, settings, task, progress, exact=False)
-        except CrowdedError as crowd:  # more obstacles near at once than the library's slots
-            cg.notice(f"{crowd}: a step with the scene's slots")
-            return self._track(problem, settings, task, progress, exact=True)
+        return _crowded_or_not(self._track, problem, settings, task, progress)
 
     @staticmethod
     def _track(
@@ -161,6 +153,22 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
             model.params,
             active,
         )
+
+
+def _crowded_or_not(
+    track: Callable[[Problem, Any, TrackPath, Progress, bool], Solution],
+    problem: Problem,
+    settings: Any,
+    task: TrackPath,
+    progress: Progress,
+) -> Solution:
+    """``track`` with the family's libraries, or, when more obstacles of a kind come near the
+    robot at once than a narrower library's slots, with a library of the scene's slots."""
+    try:
+        return track(problem, settings, task, progress, False)
+    except CrowdedError as crowd:
+        cg.notice(f"{crowd}: a step with the scene's slots")
+        return track(problem, settings, task, progress, True)
 
 
 def _active(
