@@ -194,7 +194,7 @@ def test_a_goal_under_an_obstacle_holds_and_bad_states_are_input_errors() -> Non
     np.testing.assert_array_equal(held.dq[0], dq)
     from mmplan.errors import InputError
 
-    with pytest.raises(InputError, match=r"^q: "):
+    with pytest.raises(InputError, match=r"^q\[0\]: need a finite number, got nan"):
         replanner.replan(np.full_like(q, np.nan), dq, problem.scene)
     with pytest.raises(InputError, match=r"^dq: "):
         replanner.replan(q, dq[:3], problem.scene)
@@ -212,7 +212,7 @@ def test_a_goal_under_an_obstacle_holds_and_bad_states_are_input_errors() -> Non
     assert held.status.value == "infeasible" and "goal blocked" in held.message
     odd = Superellipsoid((9.0, 0.0, 0.4), (0.1, 0.1, 0.1), (0.5, 0.7))  # in no library
     new_type = Scene((*problem.scene.obstacles, odd, ball))
-    with pytest.raises(InputError, match=r"^scene: .*shape type"):  # before the goal's check
+    with pytest.raises(InputError, match=r"^scene: no slot for superellipsoid \(0\.5, 0\.7\)"):
         replanner.replan(q, dq, new_type)
 
 
@@ -332,3 +332,37 @@ def test_a_switch_away_from_a_wider_library_keeps_its_slots(
     # the same slots in the same order: retarget keeps every obstacle at its offset
     assert switched.layout.slots == wide
     assert switched.layout.slot_offsets() == prep.fns.layout.slot_offsets()
+
+
+@pytest.mark.parametrize("elapsed", [3.0, 6.0])
+def test_a_ball_ahead_of_a_fast_robot_brakes_along_its_plan(elapsed: float) -> None:
+    """A ball appears 0.5 m ahead on the plan the youBot follows at speed: the generator's new
+    path diverges at once (the ball inside its neighbourhood); the re-plan then brakes along
+    the plan it follows: from the robot's state exactly, on that plan's samples, to rest,
+    within the youBot's torque and rate limits (independent check). Without ``elapsed`` it
+    is the diverged one-sample plan as before."""
+    from mmplan import interpolant
+
+    problem = mmplan.load_scenario("youbot3r-obstacles-torque").build()
+    replanner = Replanner(problem)
+    start, rest = np.asarray(problem.start, dtype=float), np.zeros(problem.robot.n)
+    plan = replanner.replan(start, rest, problem.scene, horizon=60.0)
+    elapsed = float(plan.t[np.searchsorted(plan.t, elapsed)])  # a sample: A(q) dq = 0 there
+    q, dq, _ = interpolant.evaluate(plan.t, plan.q, plan.dq, np.array([elapsed]))
+    rate = float(np.interp(elapsed, plan.t, plan.u))
+    ahead, _, _ = interpolant.evaluate(plan.t, plan.q, plan.dq, np.array([elapsed + 0.5]))
+    ball = Sphere((float(ahead[0, 0]), float(ahead[0, 1]), 0.35), 0.2, 0.3)
+    scene = Scene((*problem.scene.obstacles, ball), problem.scene.ground)
+    braked = replanner.replan(q[0], dq[0], scene, horizon=2.0, rate=rate, elapsed=elapsed)
+    assert braked.message.startswith("braking along the plan it follows"), braked.message
+    np.testing.assert_array_equal(braked.q[0], q[0])
+    np.testing.assert_array_equal(braked.dq[0], dq[0])
+    assert np.all(braked.dq[-1] == 0.0) and braked.u[-1] == 0.0 and braked.t[-1] < 2.0
+    later = plan.q[plan.t > elapsed]
+    np.testing.assert_array_equal(braked.q[1:-1], later[: len(braked.q) - 2])  # its path
+    moved = dataclasses.replace(problem, start=tuple(q[0]))
+    failures = [f for f in _checked(moved, braked) if "start" not in f]
+    assert failures == [], failures
+    replanner.replan(start, rest, problem.scene, horizon=60.0)
+    blind = replanner.replan(q[0], dq[0], scene, horizon=2.0, rate=rate)
+    assert len(blind.t) == 1 and blind.status.value == "diverged"

@@ -53,6 +53,7 @@ import numpy as np
 from mmplan.arrays import Array
 from mmplan.planners.extended_jacobian.parameters import (
     ParameterLayout,
+    Shape,
     park_slot,
     put_slot,
     shape_of,
@@ -62,6 +63,13 @@ from mmplan.scene.box import BOX_EXPONENTS
 from mmplan.scene.cylinder import CYLINDER_EXPONENTS
 
 __all__ = ["ActiveSlots", "CrowdedError"]
+
+
+def shape_name(exponents: Shape) -> str:
+    """The shape with these superellipsoid exponents ("superellipsoid (e1, e2)" for others)."""
+    names = {BOX_EXPONENTS: "box", CYLINDER_EXPONENTS: "cylinder", (1.0, 1.0): "sphere"}
+    key = (float(exponents[0]), float(exponents[1]))
+    return names.get(key, f"superellipsoid {key}")
 
 
 class ActiveSlots(NearSlots):
@@ -88,9 +96,8 @@ class ActiveSlots(NearSlots):
         self.delta = np.array([float(d) for _, d in obstacles])
 
     def label(self, kind: Hashable) -> str:
-        """The shape of these exponents (a superellipsoid's own: its exponents)."""
-        names = {BOX_EXPONENTS: "box", CYLINDER_EXPONENTS: "cylinder", (1.0, 1.0): "sphere"}
-        return names.get(kind, f"superellipsoid {kind}")  # type: ignore[call-overload]
+        """The shape of these exponents (:func:`shape_name`)."""
+        return shape_name(kind)  # type: ignore[arg-type]
 
     def gaps(self, C: Array, Q: Array, which: Sequence[int]) -> Array:
         """gap_o = box distance - radius - delta (module docstring) of the obstacles

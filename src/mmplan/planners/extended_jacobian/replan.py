@@ -6,9 +6,10 @@ generator once (compiled and cached: :mod:`~mmplan.planners.extended_jacobian.ca
 generator from any state (q, dq) for another scene and goal by changing numbers in its
 parameter vector only (:mod:`~mmplan.planners.extended_jacobian.parameters`): obstacle
 centres, sizes, yaw, neighbourhoods, the floor, the goal and the column partition (chosen
-again at the current state). A scene needing more slots of a shape type than the generator
-has, or a new shape type, is an ``InputError`` (make the replanner with more ``spare`` slots
-or ``shapes``).
+again at the current state). A scene with more obstacles of a shape type than the generator
+has slots keeps the near ones in the slots (:mod:`~mmplan.planners.extended_jacobian.active`;
+more of a type near the robot at once than slots, or a new shape type, is an ``InputError``:
+make the replanner with more ``spare`` slots or ``shapes``).
 
 A re-plan is the generator's path over ``horizon`` seconds of its own time, with the
 obstacle perturbation of [PajakPajak] eq. (19), and then, when the robot has torque or rate
@@ -30,8 +31,11 @@ A goal inside an obstacle (an obstacle passing over it) is no error here: the re
 the given state (one sample, status ``infeasible``, the message says which obstacle), and a
 later re-plan, with the obstacle gone, moves on (the example holds a cycle and re-plans). A
 state of the wrong size or not finite, a rate outside [0, 1] (or 0 for a moving robot), a
-horizon that is not a finite positive time, a goal that is not 3 finite numbers and more
-obstacles of a shape type than the replanner's slots are ``InputError``s.
+horizon that is not a finite positive time, a goal that is not 3 finite numbers and a shape
+type the replanner has no slot for are ``InputError``s. With ``elapsed`` (the robot follows
+the last re-plan) a new path the robot cannot take at its speed, none, or a blocked goal make
+it brake to rest along the plan it follows instead
+(:mod:`~mmplan.planners.extended_jacobian.braking`).
 
 Which rate: any w the limits admit at the start makes the re-plan start at dq (dq / w x w);
 the rate sets the generator's path speed q' = dq / w, which the time scaling can follow from
@@ -54,7 +58,8 @@ from mmplan.compile import codegen as cg
 from mmplan.errors import InputError
 from mmplan.planners.extended_jacobian import cache as ej_cache
 from mmplan.planners.extended_jacobian import checks as ej_checks
-from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError
+from mmplan.planners.extended_jacobian.active import ActiveSlots, CrowdedError, shape_name
+from mmplan.planners.extended_jacobian.braking import brake
 from mmplan.planners.extended_jacobian.criterion import Partition, choose_partition
 from mmplan.planners.extended_jacobian.generator import (
     GeneratorFunctions,
@@ -77,8 +82,10 @@ from mmplan.trajectory import Status
 HORIZON = 3.0
 #: A time rate at or below this is the robot at rest (its path velocity dq / w undefined).
 RATE_AT_REST = 1e-6
-#: Largest |dq| of a robot at rest [rad/s or m/s] (with a rate at rest).
-STILL = 1e-9
+#: Largest |dq| [rad/s or m/s] of a robot counted at rest with a rate at rest: a braking plan
+#: (braking.py) ends at w <= 1e-6, so the last 0.1 s before its stop hold |dq| up to ~1e-5; a
+#: re-plan from there starts from rest (a step of at most this in the velocity).
+STILL = 1e-3
 
 
 class Replanner:
@@ -112,6 +119,7 @@ class Replanner:
         self.heading = heading_reference(self.robot, q0, self.goal)
         self.fns = self._generator(self.partition, self.slots)
         self.winv = wheel_metric_inverse(self.robot)
+        self._last: RolloutResult | None = None  # the last time-scaled plan returned
 
     def _generator(
         self, partition: Partition, slots: Sequence[tuple[Shape, int]], codegen: bool | None = None
@@ -140,10 +148,11 @@ class Replanner:
         have = dict(self.fns.layout.slots)
         if not all(have.get(shape_of(m), 0) for m in models):
             # before the goal's check: a goal under an obstacle of a new type is this error
-            kinds = slots_for(exponents, 1)
+            new = sorted({shape_name(shape_of(m)) for m in models if not have.get(shape_of(m))})
+            kept = ", ".join(f"{k} {shape_name(e)}" for e, k in self.fns.layout.slots)
             raise InputError(
-                "scene", f"{kinds} obstacles by shape type, slots {self.fns.layout.slots}: "
-                "make the Replanner with this shape type among its spare ones",
+                "scene", f"no slot for {', '.join(new)} obstacles (slots: {kept}): make the "
+                "Replanner with these shapes (its shapes argument)",
             )  # fmt: skip
         obstacles = ej_checks.fit_influence(obstacles, goal)
         ground = getattr(scene, "ground", None)
@@ -176,13 +185,18 @@ class Replanner:
         horizon: float = HORIZON,
         limits: bool = True,
         rate: float = 1.0,
+        elapsed: float | None = None,
     ) -> RolloutResult:
         """The generator's motion from (q, dq) among ``scene``'s obstacles towards ``goal``
         (default: the problem's) over at most ``horizon`` seconds of its path, time-scaled
         under the robot's limits unless ``limits`` is False; ``rate``: the time rate w at
         (q, dq) of the time-scaled plan the robot follows (its ``u`` column; module
-        docstring)."""
+        docstring). ``elapsed``: the robot follows the plan this Replanner returned last,
+        ``elapsed`` seconds into it (q, dq are that plan's there): when the new path cannot be
+        taken at the robot's speed within the limits, the robot brakes along that plan instead
+        (:mod:`~mmplan.planners.extended_jacobian.braking`; the returned plan says so)."""
         qv, dqv = self._state(q, "q"), self._state(dq, "dq")
+        last, self._last = self._last, None  # set again below for a time-scaled plan
         if not (np.isfinite(rate) and 0.0 <= rate <= 1.0):
             raise InputError("rate", f"need 0 <= rate <= 1, got {rate}")
         if not (np.isfinite(horizon) and horizon > 0.0):
@@ -207,6 +221,9 @@ class Replanner:
         except InputError as err:
             if err.field != "goal.position":
                 raise
+            slowed = self._brake(last, elapsed, f"goal blocked: {err.problem}")
+            if slowed is not None and len(slowed.t) >= 2:
+                return slowed
             return self._hold(qv, dqv, target, f"goal blocked: {err.problem}")
         opt = dataclasses.replace(self.options, t_max=horizon)
 
@@ -227,15 +244,41 @@ class Replanner:
             raise InputError("scene", f"{err}: make the Replanner with more spare slots") from err
         if not scaled:
             return free
-        if len(free.t) < 2:  # no path to scale: the state as it is
+        if len(free.t) < 2:  # no path: brake along the last plan; at rest, hold
+            slowed = self._brake(last, elapsed, free.message)
+            if slowed is not None and len(slowed.t) >= 2:
+                return slowed
+            if slowed is not None or float(np.max(np.abs(dqv), initial=0.0)) <= STILL:
+                return self._hold(qv, np.zeros_like(dqv), target, f"held at rest: {free.message}")
             return dataclasses.replace(free, dq=dqv[None, :], u=np.full(1, rate))
         start = rate if rate > RATE_AT_REST else None  # at rest: as a plan starts
-        return scale_path(free, self.fns, self.limits, time_mode=True, start_rate=start)
+        res = scale_path(free, self.fns, self.limits, time_mode=True, start_rate=start)
+        self._last = res
+        if res.info.get("velocity_step"):
+            return self._brake(last, elapsed, "the new path cannot be taken at this speed "
+                               "within the limits") or res  # fmt: skip
+        return res
+
+    def _brake(
+        self, last: RolloutResult | None, elapsed: float | None, why: str
+    ) -> RolloutResult | None:
+        """The last plan, from ``elapsed`` on, brought to rest (:mod:`~mmplan.planners.
+        extended_jacobian.braking`); None without one or when its limits cannot stop it."""
+        if last is None or elapsed is None:
+            return None
+        slowed = brake(last, elapsed, self.fns, self.limits, self.robot.actuator_efforts)
+        if slowed is not None:
+            slowed.message += f": {why}"
+            self._last = slowed
+        return slowed
 
     def _state(self, x: ArrayLike, name: str) -> Array:
         v = np.asarray(x, dtype=float)
-        if v.shape != (self.robot.n,) or not np.all(np.isfinite(v)):
+        if v.shape != (self.robot.n,):
             raise InputError(name, f"need {self.robot.n} finite numbers, got shape {v.shape}")
+        if not np.all(np.isfinite(v)):
+            bad = int(np.flatnonzero(~np.isfinite(v))[0])
+            raise InputError(f"{name}[{bad}]", f"need a finite number, got {v[bad]}")
         return v
 
     def _hold(self, q: Array, dq: Array, goal: Array, message: str) -> RolloutResult:

@@ -88,6 +88,11 @@ def _effort_split(path: RolloutResult, fns: GeneratorFunctions) -> tuple[Array, 
     return fns.evaluate_many(path.q, path.dq)  # one call for all samples
 
 
+#: A moving start's rate w_0 the scaling misses by at most this (relative) is no step.
+STEP_TOL = 1e-9
+#: Cap of x = w^2 at the last sample of a path that ends at rest (``scale_path``'s
+#: ``end_at_rest``): w <= 1e-6 (a cap of 0 would be a row 1/0).
+REST_CAP = 1e-12
 #: Largest trapezoid residual of a step of the re-timed plan, relative to its peak |dq|:
 #: half the checker's dq-consistency tolerance (1 %, :mod:`mmplan.verify.check`).
 DQ_STEP_TOL = 0.005
@@ -113,6 +118,7 @@ def step_residuals(t: Array, q: Array, dq: Array) -> Array:
 def _retime_consistent(
     path: RolloutResult, opt: RolloutOptions, rows: tuple[Array, Array, Array, Array, Array],
     x_start: float | None,
+    end_at_rest: bool = False,
 ) -> tuple[Retimed, int, float]:
     """:func:`retime_path`, then, while a step's samples miss its motion (trapezoid residual
     above ``DQ_STEP_TOL`` x peak |dq|), the same scaling with x capped at both ends of those
@@ -130,6 +136,8 @@ def _retime_consistent(
     alpha, beta, g, lo, hi = rows
     N = len(path.t)
     cap = np.full(N, np.inf)
+    if end_at_rest:  # x = w^2 <= 1e-12 at the last sample: at rest there
+        cap[-1] = REST_CAP
     rounds = 0
     last: tuple[Retimed, int, float] | None = None
     while True:
@@ -169,6 +177,7 @@ def scale_path(
     opt: RolloutOptions,
     time_mode: bool,
     start_rate: float | None = None,
+    end_at_rest: bool = False,
 ) -> RolloutResult:
     """Time-optimal scaling (w <= 1) of ``path`` (its dq, ddq are q', q'' in its own time,
     from rest) under the safety zone of the efforts (when ``opt.torque_control``) and the rate
@@ -181,6 +190,8 @@ def scale_path(
             dq_0 = q'_0 w_0 is its velocity). Where the limits cannot hold the path from that
             rate on, w_0 is the largest they admit, a step in the velocity;
             ``info["start_rate"]`` is the w_0 used.
+        end_at_rest: w = 0 at the path's last sample (a braking plan,
+            :mod:`~mmplan.planners.extended_jacobian.braking`).
     """
     beta, g = _effort_split(path, fns)
     alpha = path.tau - g
@@ -191,12 +202,22 @@ def scale_path(
     start = 0.0 if time_mode and opt.rates is None else None
     if start_rate is not None:
         start = start_rate**2
-    timed, consistency_rounds, residual = _retime_consistent(path, opt, rows, x_start=start)
+    timed, consistency_rounds, residual = _retime_consistent(
+        path, opt, rows, x_start=start, end_at_rest=end_at_rest
+    )
     stepped = moving and not timed.scaling.feasible
     if stepped:
-        timed, consistency_rounds, residual = _retime_consistent(path, opt, rows, x_start=None)
+        timed, consistency_rounds, residual = _retime_consistent(
+            path, opt, rows, x_start=None, end_at_rest=end_at_rest
+        )
     sc = timed.scaling
-    info = dict(path.info)
+    if stepped and sc.feasible and start_rate is not None:
+        # x_start a hair outside the controllable set of a plan that rides its limits (a
+        # braking plan from the speed of the plan it slows: w_0 = 1 to 1e-16), or a start at
+        # rest (dq_0 = w_0 q'_0 = 0 whatever w_0): no step
+        missed = abs(float(np.sqrt(sc.x[0])) - start_rate) > STEP_TOL * start_rate
+        stepped = missed and bool(np.any(path.dq[0] != 0.0))
+    info = {k: v for k, v in path.info.items() if k != "velocity_step"}
     if moving and sc.feasible:
         info["start_rate"] = float(np.sqrt(sc.x[0]))
     info["consistency_rounds"] = consistency_rounds
@@ -235,6 +256,7 @@ def scale_path(
         if path.status is Status.INFEASIBLE:
             message += "; the virtual control alone left the torque limits, the re-timing kept them"
     if stepped:
+        info["velocity_step"] = True
         message += (
             f"; starts at the time rate {np.sqrt(sc.x[0]):.3g}, not the robot's {start_rate:.3g}"
             " (no rate near it holds the limits on this path: a step in the velocity)"
