@@ -136,12 +136,16 @@ def run(
 
     X, R, us, ss, ok = compute(p)
     m = accepted(X, R, ok)
+    runs = 0
     while active is not None and m:  # states k .. k + m must keep off the obstacles left out
         path = np.vstack([q[None, :], X[:m, :n]])
         v = active.first_unsafe(path)
         if v > m:
             break
+        runs += 1
         try:  # the slots chosen for the whole chunk, which runs again: the same schedule
+            if runs > active.count:  # (a bound: the near set only grows run after run)
+                raise active.stuck()
             p = active.choose(p, path)  # of chunks as with every obstacle in a slot
         except CrowdedError:  # cut: the loop takes the samples from there (to rounding)
             m = max(v - 1, 0)

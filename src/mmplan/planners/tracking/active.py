@@ -19,7 +19,10 @@ the same geometry as the shapes' NumPy ``distance``):
 
 So an obstacle counts as mattering (gap <= 0) where the smallest distance of a sphere minus
 its radius and the influence is <= 0, or (impedance) the platform's horizontal distance minus
-the reach is.
+the reach is. The samples equal those of a library holding every obstacle to the bit in the
+tests; the pseudoinverse's may differ by rounding (7.5e-15 in q, a review's probes) where the
+first slot holds another obstacle: the derivative of its potential builds the sphere centres
+inside the first slot's expressions (docs/tracking.md).
 """
 
 from __future__ import annotations

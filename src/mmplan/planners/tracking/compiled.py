@@ -100,27 +100,26 @@ def functions(
         loaded = _load(names, library, other)
         if loaded is not None:
             return Loaded(loaded, Slots(tuple((str(k), int(n)) for k, n in kinds)))
-    if key in _FAILED:  # tried in this process: not again at every plan
-        return None
-    library = cg.compile_library(lambda: list(build()), prefix, FLAGS, cg.notice, key=key)
-    loaded = _load(names, library, key)
-    if loaded is None:
-        return None
-    cf.remember(FAMILY, family, slots.kinds, key)
-    return Loaded(loaded, slots)
+    if key not in _FAILED:  # tried in this process: not again at every plan
+        library = cg.compile_library(lambda: list(build()), prefix, FLAGS, cg.notice, key=key)
+        loaded = _load(names, library, key)
+        if loaded is not None:
+            cf.remember(FAMILY, family, slots.kinds, key)
+            return Loaded(loaded, slots)
+    cg.notice(f"the compiled {names[0]} could not be built or loaded: it runs on CasADi's "
+              "virtual machine")  # fmt: skip
+    return None
 
 
 def _load(names: Sequence[str], library: str | None, key: str) -> list[ca.Function] | None:
-    """The functions from ``library``; None (said once, the key not tried again in this
-    process) when it is missing or unreadable (another machine's, damaged)."""
+    """The functions from ``library``; None (the key not tried again in this process) when
+    it is missing or unreadable (another machine's, damaged)."""
     try:
         if library is not None:
             return cg.load(names, library)
     except RuntimeError:
         pass
     _FAILED.add(key)
-    cg.notice(f"the compiled {names[0]} could not be built or loaded: it runs on CasADi's "
-              "virtual machine")  # fmt: skip
     return None
 
 

@@ -269,9 +269,16 @@ def rollout(
         if active is not None and states is not None and (
             stop is not None or k - base >= BLOCK or k > steps
         ):
-            v = active.first_unsafe(np.vstack([q[base:k], state[None, :n]]))  # states base..k
-            if v <= k - base:  # back to the last state before it, the slots chosen there
-                keep = max(base + v - 1, base)
+            # states base..k (the state after the last sample only steps nowhere: left out)
+            # with Heun's predictor q_j + dt dq_j between them (a review: a large gain x dt
+            # may put it beyond the next state)
+            ends = np.vstack([q[base:k], state[None, :n]])[: min(k, steps) - base + 1]
+            path = np.empty((2 * len(ends) - 1, n))
+            path[0::2] = ends
+            path[1::2] = ends[:-1] + dt * dq[base : base + len(ends) - 1]
+            v = active.first_unsafe(path)
+            if v < len(path):  # back to the last state whose step kept away, chosen there
+                keep = max(base + (v - 1) // 2, base)
                 retries = retries + 1 if keep == base else 0
                 if retries > active.count:
                     raise active.stuck()
