@@ -179,3 +179,20 @@ def test_short_repr_never_builds_the_full_repr() -> None:
     assert short_repr(10 ** 4000) == "<integer of 4001 digits>"
     assert short_repr("a\nb") == "'a\\nb'"
     assert yaml.safe_load("a: 1") == {"a": 1}  # the global loaders are untouched
+
+
+def test_floats_without_a_dot_are_numbers(tmp_path: Path) -> None:
+    """A new user's ``tolerance: 1e-3`` was "not a valid number": PyYAML (YAML 1.1) reads a
+    float without a dot as a string. YAML 1.2's form is read as a float; a quoted one stays a
+    string, and a huge one is refused by its range."""
+    from mmplan.scenario import safe_yaml
+
+    assert safe_yaml.load("a: 1e-3\nb: -2E+5\nc: .5e1\nd: '1e3'\ne: 10") == {
+        "a": 0.001, "b": -200000.0, "c": 5.0, "d": "1e3", "e": 10,
+    }  # fmt: skip
+    text = (Path(__file__).parents[2] / "src/mmplan/scenario/builtin/youbot3r-obstacles.yaml")
+    body = text.read_text().replace("tolerance: 0.001", "tolerance: 1e-3")
+    assert "tolerance: 1e-3" in body
+    path = tmp_path / "sci.yaml"
+    path.write_text(body)
+    assert load_scenario(path).build().task.tolerance == 0.001
