@@ -68,6 +68,37 @@ class Scene:
             out[:, j] = obstacle.distance(p)
         return out
 
+    def nearest(self, points: ArrayLike, radii: ArrayLike | None = None) -> tuple[float, int, int]:
+        """(gap, point, obstacle) of the smallest distance - radius over all points and
+        obstacles (the first in (point, obstacle) order on ties), without the (P, n_obs)
+        matrix of :meth:`distances`: obstacles nearest the points' bounding sphere first, and
+        one whose distance to that sphere is not below the best gap so far is skipped (each
+        distance is 1-Lipschitz: no point of the sphere is nearer). A new user's check of a
+        plan among 5000 obstacles took 7.9 s and 2.27 GB with the matrix.
+
+        Raises:
+            InputError: radii of the wrong shape.
+        """
+        p = points_array(points)
+        r = np.zeros(p.shape[0]) if radii is None else np.asarray(radii, dtype=float).reshape(-1)
+        if r.shape != (p.shape[0],):
+            raise InputError("radii", f"expected shape ({p.shape[0]},), got {r.shape}")
+        best: tuple[float, int, int] = (float("inf"), -1, -1)
+        if not self.obstacles or p.shape[0] == 0:
+            return best
+        centre = p.mean(axis=0)
+        bound = float(np.max(np.linalg.norm(p - centre, axis=1) + r))
+        far = np.array([float(o.distance(centre[None, :])[0]) for o in self.obstacles]) - bound
+        for j in np.argsort(far, kind="stable"):
+            if far[j] > best[0]:
+                break  # this one and every later one: no point within best of them
+            gap = self.obstacles[j].distance(p) - r
+            i = int(np.argmin(gap))
+            candidate = (float(gap[i]), i, int(j))
+            if candidate[0] < best[0] or (candidate[0] == best[0] and candidate[1:] < best[1:]):
+                best = candidate
+        return best
+
     def clearance(self, points: ArrayLike, radii: ArrayLike | None = None) -> float:
         """Smallest (distance - radius) over all points and obstacles [m].
 
@@ -78,16 +109,7 @@ class Scene:
         Returns:
             The minimum clearance, negative on penetration; +inf without obstacles or points.
         """
-        p = points_array(points)
-        if not self.obstacles or p.shape[0] == 0:
-            return float("inf")
-        d = self.distances(p)
-        if radii is not None:
-            r = np.asarray(radii, dtype=float).reshape(-1)
-            if r.shape != (p.shape[0],):
-                raise InputError("radii", f"expected shape ({p.shape[0]},), got {r.shape}")
-            d = d - r[:, None]
-        return float(d.min())
+        return self.nearest(points, radii)[0]
 
     def enlarged(self, eps: float) -> Scene:
         """Every obstacle grown by ``eps`` [m] (see each shape's ``enlarged``)."""

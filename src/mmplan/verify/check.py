@@ -293,9 +293,7 @@ def check(trajectory: Trajectory, problem: Problem, status: str | None = None) -
     if problem.scene.obstacles and robot.collision:
         P = len(robot.collision)
         pts = _mapped(fns, "collision_points", q).T  # (N * P, 3), sample-major
-        gap = problem.scene.distances(pts) - np.tile(robot.collision_radii, N)[:, None]
-        row, o = (int(i) for i in np.unravel_index(int(np.argmin(gap)), gap.shape))
-        clearance = float(gap[row, o])
+        clearance, row, o = problem.scene.nearest(pts, np.tile(robot.collision_radii, N))
         sample, point = divmod(row, P)
         clearance_where = (f"obstacles[{o}] vs robot point {point} "
                            f"(on {robot.collision[point].body}) at t = {t[sample]:.4g} s")

@@ -50,7 +50,10 @@ def clearance_series(robot: Robot, scene: Scene, q: Array) -> Array | None:
         fn = robot.functions["collision_points"]
         raw = np.asarray(fn.map(len(q))(q.T), dtype=float)  # (3, N P), a block of P a sample
         pts = raw.reshape(3, len(q), P).transpose(1, 2, 0).reshape(-1, 3)  # (N P, 3)
-    d = scene.distances(pts).min(axis=1).reshape(len(q), P) - robot.collision_radii[None, :]
+    nearest = np.full(len(pts), np.inf)  # obstacle by obstacle: no (N P, n_obs) matrix
+    for obstacle in scene.obstacles:
+        np.minimum(nearest, obstacle.distance(pts), out=nearest)
+    d = nearest.reshape(len(q), P) - robot.collision_radii[None, :]
     return np.asarray(d.min(axis=1), dtype=float)
 
 
