@@ -39,3 +39,11 @@ def test_nearest_equals_the_dense_minimum_on_random_scenes() -> None:
         assert scene.nearest(points, radii) == (float(dense[row, o]), int(row), int(o))
         assert scene.clearance(points, radii) == float(dense.min())
     assert Scene(()).nearest(np.zeros((2, 3))) == (float("inf"), -1, -1)
+
+
+def test_a_point_that_is_not_finite_gives_nan_where_it_is() -> None:
+    scene = Scene((Sphere((1.0, 0.0, 0.0), 0.2),))
+    points = np.array([[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0], [0.5, 0.0, 0.0]])
+    gap, point, obstacle = scene.nearest(points)
+    assert np.isnan(gap) and (point, obstacle) == (1, 0)
+    assert np.isnan(scene.clearance(points))

@@ -21,8 +21,6 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from mmplan.analysis import analyse
 from mmplan.errors import InputError, MmplanError
 from mmplan.io.plan_folder import write_plan
@@ -31,6 +29,7 @@ from mmplan.reproduce.evaluate import Evaluated, evaluate, with_floor_note
 from mmplan.reproduce.published import REFERENCES, SCENARIOS, VARIANTS, Reference
 from mmplan.reproduce.runs import RunOutcome, RunSpec
 from mmplan.reproduce.workers import Report, can_fork, in_workers
+from mmplan.scenario import safe_yaml
 from mmplan.scenario.loader import Scenario, builtin_scenarios, load_scenario
 
 #: progress(run name, runs finished + fraction of the current run, number of runs)
@@ -93,7 +92,7 @@ def load_run(spec: RunSpec) -> Scenario:
     if spec.base is None:
         return load_scenario(spec.name)
     path = builtin_scenarios()[spec.base]
-    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    data = safe_yaml.load(path.read_text(encoding="utf-8"))
     data["name"] = spec.name
     data["planner"] = {**data["planner"], **(spec.planner or {})}
     data.update(spec.scenario or {})

@@ -336,16 +336,21 @@ def test_a_switch_away_from_a_wider_library_keeps_its_slots(
 
 @pytest.mark.parametrize("elapsed", [3.0, 6.0])
 def test_a_ball_ahead_of_a_fast_robot_brakes_along_its_plan(elapsed: float) -> None:
-    """A ball appears 0.5 m ahead on the plan the youBot follows at speed: the generator's new
-    path diverges at once (the ball inside its neighbourhood); the re-plan then brakes along
-    the plan it follows: from the robot's state exactly, on that plan's samples, to rest,
-    within the youBot's torque and rate limits (independent check). Without ``elapsed`` it
-    is the diverged one-sample plan as before."""
+    """A ball appears ahead on the plan the youBot follows at speed: the generator's new path
+    diverges at once (the ball inside its neighbourhood); the re-plan then brakes along the
+    plan it follows: from the robot's state exactly, on that plan's samples, to rest, within
+    the youBot's torque and rate limits (independent check), and says that it meets the ball
+    (braking does not steer). A state off the plan with ``elapsed`` and a negative ``elapsed``
+    are input errors; without ``elapsed`` it is the diverged one-sample plan as before."""
     from mmplan import interpolant
+    from mmplan.errors import InputError
 
     problem = mmplan.load_scenario("youbot3r-obstacles-torque").build()
     replanner = Replanner(problem)
     start, rest = np.asarray(problem.start, dtype=float), np.zeros(problem.robot.n)
+    plan = replanner.replan(start, rest, problem.scene, horizon=60.0)
+    with pytest.raises(InputError, match=r"^elapsed: need a finite time >= 0 s, got -1"):
+        replanner.replan(start, rest, problem.scene, elapsed=-1.0)
     plan = replanner.replan(start, rest, problem.scene, horizon=60.0)
     elapsed = float(plan.t[np.searchsorted(plan.t, elapsed)])  # a sample: A(q) dq = 0 there
     q, dq, _ = interpolant.evaluate(plan.t, plan.q, plan.dq, np.array([elapsed]))
@@ -362,7 +367,15 @@ def test_a_ball_ahead_of_a_fast_robot_brakes_along_its_plan(elapsed: float) -> N
     np.testing.assert_array_equal(braked.q[1:-1], later[: len(braked.q) - 2])  # its path
     moved = dataclasses.replace(problem, start=tuple(q[0]))
     failures = [f for f in _checked(moved, braked) if "start" not in f]
-    assert failures == [], failures
+    assert failures == [], failures  # the limits and the wheels' constraints (no ball there)
+    # braking does not steer: here the ball already overlaps the arm; the plan says so
+    points = np.vstack([problem.robot.collision_points(x) for x in braked.q])
+    gap = scene.clearance(points, np.tile(problem.robot.collision_radii, len(braked.q)))
+    assert braked.info["min_clearance_m"] == gap < 0.0
+    assert braked.status.value == "infeasible" and "it meets obstacles[3]" in braked.message
+    replanner.replan(start, rest, problem.scene, horizon=60.0)  # the plan followed again
+    with pytest.raises(InputError, match=r"^elapsed: the state is not the last re-plan's"):
+        replanner.replan(q[0] + 0.01, dq[0], scene, horizon=2.0, rate=rate, elapsed=elapsed)
     replanner.replan(start, rest, problem.scene, horizon=60.0)
     blind = replanner.replan(q[0], dq[0], scene, horizon=2.0, rate=rate)
     assert len(blind.t) == 1 and blind.status.value == "diverged"

@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mmplan import interpolant
 from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
 from mmplan.errors import InputError
@@ -86,6 +87,9 @@ RATE_AT_REST = 1e-6
 #: (braking.py) ends at w <= 1e-6, so the last 0.1 s before its stop hold |dq| up to ~1e-5; a
 #: re-plan from there starts from rest (a step of at most this in the velocity).
 STILL = 1e-3
+#: Largest difference [rad or m, per second for dq] between the state given with ``elapsed``
+#: and the last re-plan's state there (the robot follows that plan's samples and interpolant).
+ON_PLAN = 1e-6
 
 
 class Replanner:
@@ -201,6 +205,8 @@ class Replanner:
             raise InputError("rate", f"need 0 <= rate <= 1, got {rate}")
         if not (np.isfinite(horizon) and horizon > 0.0):
             raise InputError("horizon", f"need a finite time > 0 s, got {horizon}")
+        if elapsed is not None and not (np.isfinite(elapsed) and elapsed >= 0.0):
+            raise InputError("elapsed", f"need a finite time >= 0 s, got {elapsed}")
         target = self.goal if goal is None else np.asarray(goal, dtype=float)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
             raise InputError("goal", f"need 3 finite numbers, got shape {target.shape}")
@@ -221,7 +227,7 @@ class Replanner:
         except InputError as err:
             if err.field != "goal.position":
                 raise
-            slowed = self._brake(last, elapsed, f"goal blocked: {err.problem}")
+            slowed = self._brake(last, elapsed, f"goal blocked: {err.problem}", scene, qv, dqv)
             if slowed is not None and len(slowed.t) >= 2:
                 return slowed
             return self._hold(qv, dqv, target, f"goal blocked: {err.problem}")
@@ -245,7 +251,7 @@ class Replanner:
         if not scaled:
             return free
         if len(free.t) < 2:  # no path: brake along the last plan; at rest, hold
-            slowed = self._brake(last, elapsed, free.message)
+            slowed = self._brake(last, elapsed, free.message, scene, qv, dqv)
             if slowed is not None and len(slowed.t) >= 2:
                 return slowed
             if slowed is not None or float(np.max(np.abs(dqv), initial=0.0)) <= STILL:
@@ -254,22 +260,48 @@ class Replanner:
         start = rate if rate > RATE_AT_REST else None  # at rest: as a plan starts
         res = scale_path(free, self.fns, self.limits, time_mode=True, start_rate=start)
         self._last = res
-        if res.info.get("velocity_step"):
-            return self._brake(last, elapsed, "the new path cannot be taken at this speed "
-                               "within the limits") or res  # fmt: skip
+        if res.info.get("velocity_step") or res.status is Status.INFEASIBLE:
+            why = "the new path cannot be taken at this speed within the limits"
+            return self._brake(last, elapsed, why, scene, qv, dqv) or res
         return res
 
     def _brake(
-        self, last: RolloutResult | None, elapsed: float | None, why: str
+        self,
+        last: RolloutResult | None,
+        elapsed: float | None,
+        why: str,
+        scene: Any,
+        q: Array,
+        dq: Array,
     ) -> RolloutResult | None:
         """The last plan, from ``elapsed`` on, brought to rest (:mod:`~mmplan.planners.
-        extended_jacobian.braking`); None without one or when its limits cannot stop it."""
-        if last is None or elapsed is None:
+        extended_jacobian.braking`); None without one, for a robot at rest (it holds), or when
+        its limits cannot stop it. A braking plan that meets an obstacle of ``scene`` is
+        ``infeasible`` and says where (it is the old path: braking does not steer)."""
+        if last is None or elapsed is None or float(np.max(np.abs(dq), initial=0.0)) <= STILL:
             return None
+        if len(last.t) >= 2 and elapsed <= float(last.t[-1]):
+            at_q, at_dq, _ = interpolant.evaluate(last.t, last.q, last.dq, np.array([elapsed]))
+            off = max(float(np.max(np.abs(at_q[0] - q))), float(np.max(np.abs(at_dq[0] - dq))))
+            if off > ON_PLAN:
+                raise InputError(
+                    "elapsed", f"the state is not the last re-plan's at {elapsed:g} s (off by "
+                    f"{off:.3g}): pass elapsed only while following the last re-plan",
+                )  # fmt: skip
         slowed = brake(last, elapsed, self.fns, self.limits, self.robot.actuator_efforts)
-        if slowed is not None:
-            slowed.message += f": {why}"
-            self._last = slowed
+        if slowed is None:
+            return None
+        slowed.message += f": {why}"
+        if scene.obstacles and self.robot.collision:
+            points = np.vstack([self.robot.collision_points(q) for q in slowed.q])
+            radii = np.tile(self.robot.collision_radii, len(slowed.q))
+            gap, row, o = scene.nearest(points, radii)
+            slowed.info["min_clearance_m"] = gap
+            if gap < 0.0:
+                when = float(slowed.t[row // len(self.robot.collision)])
+                slowed.status = Status.INFEASIBLE
+                slowed.message += f"; it meets obstacles[{o}] at t = {when:.3f} s ({gap:.3f} m)"
+        self._last = slowed
         return slowed
 
     def _state(self, x: ArrayLike, name: str) -> Array:
