@@ -173,7 +173,7 @@ def test_a_replanner_gets_the_slots_it_asks_for(
 ) -> None:
     """A review's case: with a narrower library on disk, Replanner(problem, spare) got it (its
     spare slots gone, and the advice "make the Replanner with more spare slots" could not
-    help). Its slots are a choice: it asks for exactly them."""
+    help). Its slots are a choice: it gets at least them (a wider library may serve)."""
     monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
     ej_cache.clear()
     ExtendedJacobian().plan(_with(()))  # a library with 2 cylinder and 2 sphere slots
