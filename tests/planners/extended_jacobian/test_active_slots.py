@@ -196,3 +196,22 @@ def test_a_replan_among_more_spheres_than_slots_is_the_replan_without_the_far_on
     assert b.info["slot_choices"] >= 1 and "slot_choices" not in a.info
     np.testing.assert_array_equal(a.t, b.t)
     np.testing.assert_array_equal(a.q, b.q)
+
+
+@pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
+def test_a_compile_for_a_new_shape_type_says_why(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A new user's scene with boxes compiled with only "compiling ej to C": now the notice
+    names the shape no compiled generator of the robot has a slot for."""
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    ej_cache.clear()
+    ExtendedJacobian().plan(_with(()))
+    assert "has a slot for" not in capsys.readouterr().err  # the first: nothing to say
+    base = _with(())
+    box = Box((3.0, 0.5, 0.2), (0.3, 0.3, 0.4))
+    scene = Scene((*base.scene.obstacles, box), base.scene.ground)
+    ej_cache.clear()
+    ExtendedJacobian().plan(dataclasses.replace(base, scene=scene))
+    err = capsys.readouterr().err
+    assert "no compiled generator of this robot has a slot for box obstacles" in err, err

@@ -134,6 +134,9 @@ def generator(
                 fns = None
             if fns is None:
                 dkey = ej_compiled.disk_key(robot, slots, model)
+                why = ej_compiled.why_compile(family, slots)
+                if why and notify is not None:
+                    notify(why)
                 fns = symbolic(dkey, compiled=True)
                 if fns.compiled and fns.layout.supports(partition):
                     ej_compiled.remember(family, slots, dkey)

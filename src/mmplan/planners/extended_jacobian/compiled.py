@@ -27,6 +27,7 @@ import casadi as ca
 from mmplan.compile import codegen as cg
 from mmplan.compile import family as cf
 from mmplan.compile.fingerprint import python_files, robot_fingerprint, source_fingerprint
+from mmplan.planners.extended_jacobian.active import shape_name
 from mmplan.planners.extended_jacobian.functions import GeneratorFunctions, LazyFunction
 from mmplan.planners.extended_jacobian.parameters import ParameterLayout, Shape
 
@@ -111,6 +112,18 @@ def covering(family: str, slots: Sequence[tuple[Shape, int]]) -> list[tuple[str,
     first (:func:`mmplan.compile.family.covering`; the near obstacles in the slots:
     :mod:`~mmplan.planners.extended_jacobian.active`)."""
     return cf.covering(FAMILY, family, slots)
+
+
+def why_compile(family: str, slots: Sequence[tuple[Shape, int]]) -> str:
+    """Why a generator of this family is compiled although others are on disk: the shape
+    types none of them has a slot for ("" when there is no other, or all types are held: the
+    caller says why, e.g. a crowded scene)."""
+    listed = cf.listed(FAMILY, family)
+    held = {e for _, have in listed for e, k in have if k}
+    missing = sorted({shape_name(e) for e, _ in slots if tuple(e) not in held})
+    if not listed or not missing:
+        return ""
+    return f"no compiled generator of this robot has a slot for {', '.join(missing)} obstacles"
 
 
 def _external(name: str, library: str) -> ca.Function:
