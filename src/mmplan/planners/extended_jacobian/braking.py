@@ -14,12 +14,15 @@ The old plan q_o(s) (s its time, from the robot's state at ``elapsed``) is the p
 scaling (:func:`~mmplan.planners.extended_jacobian.time_scaling.scale_path`, with sigma = s,
 q' = dq_o, q'' = ddq_o and its efforts at x = 1): from x = 1 (the robot's speed: its state to
 the bit) to rest (x <= 1e-12 at the last sample of a stretch), time-optimal under the torque
-zone and the rate limits. The shortest stretch of the old plan that can stop in time is found
-by bisection (with a few longer ones: the shortest stops on a knife's edge and creeps; the one
-at rest soonest is taken). The geometric path, and with it the clearance and the wheels'
-constraints, are the old plan's; a braking plan followed further is continued, not braked
-again. Tested (tests/planners/extended_jacobian/test_replan.py): a ball 0.5 m ahead of the
-youBot at speed, the braking plan from the state to rest passes the independent check.
+zone and the rate limits. Of stretches of 3, 4, 6, 9, ... samples of the old plan up to all of
+it, the one at rest soonest is taken, among those whose scaling starts at x = 1, keeps its
+samples consistent with their motion (the checker's dq test) and stops within 10 s (the
+shortest that can stop does so on a knife's edge and creeps). The geometric path, and with
+it the wheels' constraints, are the old plan's: braking does not steer (the re-planner
+measures its clearance to the new scene and says when it meets an obstacle). A braking plan
+followed further is continued, not braked again. Tested
+(tests/planners/extended_jacobian/test_replan.py): a ball ahead of the youBot at speed, the
+braking plan from the state to rest passes the independent check.
 """
 
 from __future__ import annotations
