@@ -71,8 +71,8 @@ def _plan(problem: Problem, exact: bool) -> tuple[float, PlanResult]:
     functions = track_compiled.functions
     if exact and method == "extended-jacobian":
 
-        def prepare(cls: type, problem: Problem, guess: bool = False, exact: bool = False) -> Any:
-            return original.__func__(cls, problem, guess, True)
+        def prepare(cls: type, problem: Problem, guess: bool = False, *_: Any, **__: Any) -> Any:
+            return original.__func__(cls, problem, guess, whole=True)
 
         ExtendedJacobian._prepare = classmethod(prepare)  # type: ignore[method-assign,assignment]
     elif exact:

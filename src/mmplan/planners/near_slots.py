@@ -15,7 +15,9 @@ matter) and the way its parameters are written (:meth:`NearSlots.write`):
   the run keeps the states before it and calls ``choose(p, Q)`` there: the flagged obstacles
   and every obstacle within the margin first, then the nearest;
 * :class:`CrowdedError` when more obstacles of a kind are within the margin at once than
-  the kind has slots: the planner then uses a function with the scene's own slots.
+  the kind has slots: the planner then uses a function with more slots of that kind
+  (:meth:`CrowdedError.grown`), compiled when none is on disk; a first compile holds at most
+  :data:`SLOT_CAP` slots of a kind (:func:`capped`).
 
 Used by :mod:`mmplan.planners.extended_jacobian.active` and
 :mod:`mmplan.planners.tracking.active`.
@@ -30,6 +32,11 @@ import numpy as np
 
 from mmplan.arrays import Array
 
+#: Most slots of a kind a library is compiled with for a scene with more obstacles of it (the
+#: near ones in the slots; :func:`capped`): a new user's scene of 200 obstacles compiled 62
+#: cylinder slots in 9.2 s, a tracker's 16 slots in 24.6 s. Grown where the scene is crowded
+#: (:meth:`CrowdedError.grown`).
+SLOT_CAP = 8
 #: Distance [m] an obstacle left out of the slots keeps beyond its reach, besides twice the
 #: largest step of a sphere (module docstring).
 MARGIN = 0.01
@@ -38,9 +45,27 @@ MARGIN = 0.01
 class CrowdedError(Exception):
     """More obstacles of a kind near the robot at once than the function has slots."""
 
-    def __init__(self, kind: Hashable, near: int, slots: int) -> None:
-        super().__init__(f"{near} {kind} obstacles near at once, {slots} slots")
+    def __init__(self, kind: Hashable, near: int, slots: int, name: str | None = None) -> None:
+        super().__init__(f"{near} {kind if name is None else name} obstacles near at once, "
+                         f"{slots} slots")  # fmt: skip
         self.kind, self.near, self.slots = kind, near, slots
+
+    def grown(self, cap: dict[Hashable, int]) -> dict[Hashable, int]:
+        """``cap`` (slots per kind a library is compiled with) with this kind's grown to hold
+        the obstacles near at once: at least twice its slots, a multiple of 2."""
+        need = max(2 * self.slots, self.near + self.near % 2)
+        return {**cap, self.kind: max(cap.get(self.kind, 0), need)}
+
+
+def capped(
+    slots: Sequence[tuple[Hashable, int]], cap: dict[Hashable, int] | None
+) -> tuple[tuple[Hashable, int], ...]:
+    """Slots per kind with at most ``cap``'s count of a kind (:data:`SLOT_CAP` for a kind it
+    does not name; None: no cap): a library compiled for a scene of many obstacles holds the
+    near ones (module docstring), and its compile stays bounded."""
+    if cap is None:
+        return tuple(slots)
+    return tuple((k, min(n, cap.get(k, SLOT_CAP))) for k, n in slots)
 
 
 class NearSlots:
@@ -112,7 +137,7 @@ class NearSlots:
             room = self.capacity[kind]
             must = [i for i in idx if i in self.flagged or g[i] <= self.margin]
             if len(must) > room:
-                raise CrowdedError(self.label(kind), len(must), room)
+                raise CrowdedError(kind, len(must), room, self.label(kind))
             rest = sorted((i for i in idx if i not in must), key=lambda i: (g[i], i))
             chosen[kind] = sorted(must + rest[: room - len(must)])  # the scene's order
         self.chosen = frozenset(i for mine in chosen.values() for i in mine)
@@ -127,7 +152,7 @@ class NearSlots:
         kind = next(k for k, idx in self.kinds.items() if i in idx)
         mine = set(self.kinds[kind])
         near = len((self.chosen | self.flagged) & mine)
-        return CrowdedError(self.label(kind), near, self.capacity[kind])
+        return CrowdedError(kind, near, self.capacity[kind], self.label(kind))
 
     def first_unsafe(self, Q: Array) -> int:
         """Index of the first state of Q (M, n), consecutive states of the run, at which an

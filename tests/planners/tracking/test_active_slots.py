@@ -130,7 +130,7 @@ def test_a_crowded_impedance_scene_uses_its_own_slots(
     problem = _with(name, ((0.3, 0.9, 0.02), (0.9, 0.3, 0.02), (-0.5, -0.4, 0.02)))
     capsys.readouterr()
     sol = _plan(problem)
-    assert "near at once, 2 slots: a step with the scene's slots" in capsys.readouterr().err
+    assert "near at once, 2 slots: a step with 4 of them" in capsys.readouterr().err
     exact = _plan(problem, exact=True)
     np.testing.assert_array_equal(sol.trajectory.q, exact.trajectory.q)
 

@@ -32,9 +32,9 @@ obstacle in a slot: the same samples to the bit), or, when those states come nea
 obstacles of a type than slots, is cut before the first such state and the slots are chosen
 again there (the loop's samples from there equal the chunk's to rounding); a single step is
 taken again with the new choice. When more obstacles of a type are within the margin at once
-than the library has slots, ``CrowdedError`` is raised and the planner uses a library
-with the scene's own slots (a compile when there is none: the only case left where an
-obstacle count compiles).
+than the library has slots, ``CrowdedError`` is raised and the planner uses a library with
+more slots of that type (:meth:`~mmplan.planners.near_slots.CrowdedError.grown`; a compile
+when there is none: the only case left where an obstacle count compiles).
 
 Cost: the check evaluates the compiled collision points at every state of a chunk; measured
 (``python bench/bench_active_slots.py``, warm, 9 alternated pairs) the paper scene with 3 and

@@ -40,6 +40,7 @@ The modules this planner runs, in data-flow order, are listed in
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Hashable
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,6 +79,7 @@ from mmplan.planners.extended_jacobian.time_scaling import (
     retime,
     rollout_time_scaled,
 )
+from mmplan.planners.near_slots import capped
 from mmplan.problem import Problem, Progress
 from mmplan.task import ReachPoint, completion_time
 from mmplan.time_scaling import passes as topp_passes
@@ -102,6 +104,7 @@ class _Prepared:
     time_scaling: bool
     switch: PartitionSwitch
     active: ActiveSlots | None = None  # more obstacles than slots (active.py)
+    cap: dict[Hashable, int] | None = None  # slots a type was compiled with at most
 
 
 @register
@@ -122,24 +125,14 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         """
         prep = self._prepare(problem, guess=True)
         robot = problem.robot
-        try:
-            res = self._run(prep, robot, prep.options, prep.switch)
-        except CrowdedError as crowd:  # more obstacles near at once than the library's slots
-            cg.notice(f"{crowd}: a generator with the scene's slots")
-            prep = self._prepare(problem, guess=True, exact=True)
-            res = self._run(prep, robot, prep.options, prep.switch)
+        prep, res, _ = self._grown_run(problem, prep, prep.options, prep.switch)
         refined = prep.options
         while res.info.get("step_residual_ratio", 0.0) > CHECK_RATIO and refined.dt / 2 >= MIN_DT:
             # the samples miss their motion where the generator's path turns within a step
             # (module docstring): the same plan with half the step
             refined = dataclasses.replace(refined, dt=refined.dt / 2)
             switch = dataclasses.replace(prep.switch, partitions=[prep.partition])
-            try:
-                res = self._run(prep, robot, refined, switch)
-            except CrowdedError:  # the finer step came nearer: every obstacle in a slot
-                prep = self._prepare(problem, exact=True)  # its own generator and switch
-                switch = dataclasses.replace(prep.switch, partitions=[prep.partition])
-                res = self._run(prep, robot, refined, switch)
+            prep, res, switch = self._grown_run(problem, prep, refined, switch)
             res.info["refined_dt"] = refined.dt
             prep = dataclasses.replace(prep, switch=switch)
         if res.info.get("step_residual_ratio", 0.0) > CHECK_RATIO:
@@ -182,6 +175,22 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             history={"error": res.error, "perturbation_scale": res.s},
         )
 
+    @classmethod
+    def _grown_run(
+        cls, problem: Problem, prep: _Prepared, options: RolloutOptions, switch: PartitionSwitch
+    ) -> tuple[_Prepared, RolloutResult, PartitionSwitch]:
+        """:meth:`_run`; where more obstacles of a type come near the robot at once than the
+        generator's slots, again with a generator of more slots of that type (its own switch),
+        until they hold them (at most the scene's count: then no obstacle is left out)."""
+        while True:
+            try:
+                return prep, cls._run(prep, problem.robot, options, switch), switch
+            except CrowdedError as crowd:
+                cap = crowd.grown(prep.cap or {})
+                cg.notice(f"{crowd}: a generator with {cap[crowd.kind]} of them")
+                prep = cls._prepare(problem, guess=True, cap=cap)
+                switch = dataclasses.replace(prep.switch, partitions=[prep.partition])
+
     @staticmethod
     def _run(
         prep: _Prepared, robot: Any, options: RolloutOptions, switch: PartitionSwitch
@@ -198,7 +207,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
 
     def online(self, problem: Problem) -> OnlineGenerator:
         """The generator as an online step for a control loop (state in; ddq, tau, u out)."""
-        prep = self._prepare(problem, exact=True)  # p is fixed: every obstacle in a slot
+        prep = self._prepare(problem, whole=True)  # p is fixed: every obstacle in a slot
         return OnlineGenerator(prep.fns, prep.params, prep.options)
 
     def replanner(self, problem: Problem, spare: int = 2) -> Replanner:
@@ -208,9 +217,19 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         return Replanner(problem, spare)
 
     @classmethod
-    def _prepare(cls, problem: Problem, guess: bool = False, exact: bool = False) -> _Prepared:
+    def _prepare(
+        cls,
+        problem: Problem,
+        guess: bool = False,
+        whole: bool = False,
+        cap: dict[Hashable, int] | None = None,
+    ) -> _Prepared:
         """Checks, the compiled generator and the run options of ``problem`` (``guess``: start
-        the rollout's first compiled chunk meanwhile, :meth:`GeneratorFunctions.guess_chunk`)."""
+        the rollout's first compiled chunk meanwhile, :meth:`GeneratorFunctions.guess_chunk`).
+        ``whole``: a generator holding every obstacle (fixed parameters); else one compiled with
+        at most ``cap`` slots of a type (None: :data:`~mmplan.planners.near_slots.SLOT_CAP`, and
+        a narrower library on disk serves too), the near obstacles in them
+        (:mod:`~mmplan.planners.extended_jacobian.active`)."""
         settings = cls.settings(problem.settings)
         robot, task = problem.robot, problem.task
         if not isinstance(task, ReachPoint):
@@ -233,6 +252,8 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
         posture = tuple(float(b) for b in posture_weights(robot, settings.posture_weight))
         heading = heading_reference(robot, q0, p_f)
         slots = slots_for([ob.model.exponents for ob in obstacles])  # type: ignore[attr-defined]
+        if not whole:
+            slots = capped(slots, cap or {})  # type: ignore[assignment]
         options = RolloutOptions.from_settings(settings, robot, task.tolerance)
         mode = settings.virtual_control.mode
         if mode == "auto":
@@ -262,7 +283,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             posture,
             heading,
             notify=before_build,
-            exact=exact,
+            exact=whole or cap is not None,  # grown for a crowded scene: no narrower library
         )
         fns, build_time = built.fns, built.build_time
         pairs = [(ob.model, ob.influence) for ob in obstacles]
@@ -278,8 +299,9 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             try:
                 params = active.start(params, q0)
             except CrowdedError as crowd:
-                cg.notice(f"{crowd}: a generator with the scene's slots")
-                return cls._prepare(problem, guess, exact=True)
+                grown = crowd.grown(cap or {})
+                cg.notice(f"{crowd}: a generator with {grown[crowd.kind]} of them")
+                return cls._prepare(problem, guess, cap=grown)
         if guess and (not options.torque_control or time_scaling):  # from rest, no feedback:
             # its first chunks start meanwhile (each ends by t_max, as the rollout's)
             chunks = int(np.ceil(options.t_max / options.dt)) // fns.chunk_steps
@@ -319,6 +341,7 @@ class ExtendedJacobian(Planner[ExtendedJacobianSettings, ReachPoint]):
             time_scaling,
             switch,
             active,
+            cap,
         )
 
 

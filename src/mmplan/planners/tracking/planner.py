@@ -10,7 +10,7 @@ Both compile one control step and roll it along the path with :func:`.result.tra
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ import numpy as np
 from mmplan.arrays import Array
 from mmplan.compile import codegen as cg
 from mmplan.planners.base import Planner, register
+from mmplan.planners.near_slots import capped
 from mmplan.planners.tracking import compiled
 from mmplan.planners.tracking.active import CrowdedError, TrackerSlots
 from mmplan.planners.tracking.impedance import VirtualImpedance, platform_distances
@@ -53,15 +54,15 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
         settings: PseudoinverseSettings,
         task: TrackPath,
         progress: Progress,
-        exact: bool,
+        cap: dict[Hashable, int] | None,
     ) -> Solution:
         robot, scene = problem.robot, problem.scene
-        slots = Slots.of(scene.obstacles)
+        slots = _capped(Slots.of(scene.obstacles), cap)
         obstacles, ground = scene.obstacles, scene.ground
         loaded = compiled.functions(
             ("pinv_step", "task_jacobian"), robot, settings, slots, ground,
             lambda: WeightedPseudoinverse(robot, obstacles, settings, ground, slots)
-            .library_functions(), exact,
+            .library_functions(), cap is not None,
         )  # fmt: skip
         active = _active(loaded, robot, obstacles, settings.d0, None)
         # without the compiled library the numbers are built in (faster on the VM: 64.7
@@ -111,16 +112,16 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
         settings: ImpedanceSettings,
         task: TrackPath,
         progress: Progress,
-        exact: bool,
+        cap: dict[Hashable, int] | None,
     ) -> Solution:
         robot, scene = problem.robot, problem.scene
-        slots = Slots.of(scene.obstacles)
+        slots = _capped(Slots.of(scene.obstacles), cap)
         obstacles, ground = tuple(scene.obstacles), scene.ground
         loaded = compiled.functions(
             ("impedance_step", "task_matrix", "impedance_force_p"), robot, settings, slots,
             ground,
             lambda: VirtualImpedance(robot, obstacles, settings, ground, slots)
-            .library_functions(), exact,
+            .library_functions(), cap is not None,
         )  # fmt: skip
         active = _active(loaded, robot, obstacles, settings.d_max, settings.d_min)
         model = VirtualImpedance(
@@ -156,19 +157,31 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
 
 
 def _crowded_or_not(
-    track: Callable[[Problem, Any, TrackPath, Progress, bool], Solution],
+    track: Callable[[Problem, Any, TrackPath, Progress, dict[Hashable, int] | None], Solution],
     problem: Problem,
     settings: Any,
     task: TrackPath,
     progress: Progress,
 ) -> Solution:
-    """``track`` with the family's libraries, or, when more obstacles of a kind come near the
-    robot at once than a narrower library's slots, with a library of the scene's slots."""
-    try:
-        return track(problem, settings, task, progress, False)
-    except CrowdedError as crowd:
-        cg.notice(f"{crowd}: a step with the scene's slots")
-        return track(problem, settings, task, progress, True)
+    """``track`` with a library of at most :data:`~mmplan.planners.near_slots.SLOT_CAP` slots
+    a kind (the family's too); where more obstacles of a kind come near the robot at once than
+    its slots, again with more of that kind (at most the scene's count: then every obstacle
+    is held)."""
+    cap: dict[Hashable, int] | None = None
+    while True:
+        try:
+            return track(problem, settings, task, progress, cap)
+        except CrowdedError as crowd:
+            cap = crowd.grown(cap or {})
+            cg.notice(f"{crowd}: a step with {cap[crowd.kind]} of them")
+
+
+def _capped(slots: Slots | None, cap: dict[Hashable, int] | None) -> Slots | None:
+    """``slots`` with at most ``cap``'s count of a kind (:func:`mmplan.planners.near_slots.
+    capped`; None: the cap of a first try)."""
+    if slots is None:
+        return None
+    return Slots(capped(slots.kinds, cap or {}))  # type: ignore[arg-type]
 
 
 def _active(
