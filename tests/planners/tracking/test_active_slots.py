@@ -174,3 +174,35 @@ def test_fewer_obstacles_use_a_wider_library_to_the_bit(
     assert compiles[0] >= 1
     np.testing.assert_array_equal(wide.trajectory.q, own.trajectory.q)
     np.testing.assert_array_equal(wide.trajectory.dq, own.trajectory.dq)
+
+
+def test_a_scene_of_many_posts_compiles_at_most_the_cap(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """More posts of a kind than SLOT_CAP in an empty cache: the step compiles SLOT_CAP of them
+    (a capped library's model was first built packing every post: "do not fit", a crash),
+    and the track equals the one of a library holding every post."""
+    from mmplan.planners import near_slots
+    from mmplan.planners.near_slots import SLOT_CAP
+
+    monkeypatch.setenv("MMPLAN_CACHE", str(tmp_path))
+    posts = tuple((x, y, 0.1) for x in (-2.0, 6.0) for y in (-3.0, -1.5, 2.0, 3.5, 5.0))
+    problem = _with("diffdrive3-track", posts)  # 11 cylinders
+    seen: list[Slots] = []
+    original = track_compiled.functions
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        found = original(*args, **kwargs)
+        seen.append(found.slots)
+        return found
+
+    monkeypatch.setattr(track_compiled, "functions", spy)
+    sol = _plan(problem)
+    assert sol.status.value == "reached", sol.message
+    assert dict(seen[0].kinds)["cylinder"] == SLOT_CAP
+    monkeypatch.setattr(track_compiled, "functions", spy)
+    monkeypatch.setattr(near_slots, "SLOT_CAP", 100)  # every post in a slot
+    seen.clear()
+    whole = _plan(problem, exact=True)
+    assert dict(seen[0].kinds)["cylinder"] > SLOT_CAP and "slot_choices" not in whole.info
+    np.testing.assert_array_equal(sol.trajectory.q, whole.trajectory.q)

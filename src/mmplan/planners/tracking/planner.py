@@ -61,7 +61,7 @@ class PseudoinversePlanner(Planner[PseudoinverseSettings, TrackPath]):
         obstacles, ground = scene.obstacles, scene.ground
         loaded = compiled.functions(
             ("pinv_step", "task_jacobian"), robot, settings, slots, ground,
-            lambda: WeightedPseudoinverse(robot, obstacles, settings, ground, slots)
+            lambda: WeightedPseudoinverse(robot, _fit(obstacles, slots), settings, ground, slots)
             .library_functions(), cap is not None,
         )  # fmt: skip
         active = _active(loaded, robot, obstacles, settings.d0, None)
@@ -120,7 +120,7 @@ class ImpedancePlanner(Planner[ImpedanceSettings, TrackPath]):
         loaded = compiled.functions(
             ("impedance_step", "task_matrix", "impedance_force_p"), robot, settings, slots,
             ground,
-            lambda: VirtualImpedance(robot, obstacles, settings, ground, slots)
+            lambda: VirtualImpedance(robot, _fit(obstacles, slots), settings, ground, slots)
             .library_functions(), cap is not None,
         )  # fmt: skip
         active = _active(loaded, robot, obstacles, settings.d_max, settings.d_min)
@@ -182,6 +182,14 @@ def _capped(slots: Slots | None, cap: dict[Hashable, int] | None) -> Slots | Non
     if slots is None:
         return None
     return Slots(capped(slots.kinds, cap or {}))  # type: ignore[arg-type]
+
+
+def _fit(obstacles: Sequence[Obstacle], slots: Slots | None) -> tuple[Obstacle, ...]:
+    """The obstacles a model built for ``slots`` packs: all when they fit, else none (its
+    library's functions take the obstacles as parameters; the choice fills them, :mod:`.active`;
+    a scene of more obstacles than a capped library's slots raised "do not fit")."""
+    fits = slots is None or slots.accepts(obstacles)
+    return tuple(obstacles) if fits else ()
 
 
 def _active(
