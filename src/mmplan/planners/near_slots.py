@@ -109,15 +109,7 @@ class NearSlots:
 
     def points(self, Q: Array) -> Array:
         """Collision sphere centres at the states Q (M, n): (M, P, 3)."""
-        Q = np.ascontiguousarray(np.atleast_2d(Q)[:, : self.robot.n], dtype=float)
-        M, P = len(Q), len(self.radii)
-        if P == 0:
-            return np.zeros((M, 0, 3))
-        natives = self.robot.compiled()
-        if natives is not None:
-            return np.asarray(natives.many("collision_points", Q), dtype=float).reshape(M, P, 3)
-        fn = self.robot.functions["collision_points"].map(M)
-        return np.asarray(fn(Q.T), dtype=float).T.reshape(M, P, 3)
+        return np.asarray(self.robot.collision_points_at(np.atleast_2d(Q)[:, : self.robot.n]))
 
     def start(self, p: Array, q: Array) -> Array:
         """p with the slots' first choice at the start q (a copy); resets the choice."""

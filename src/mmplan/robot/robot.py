@@ -340,6 +340,20 @@ class Robot:
         P = self._call("collision_points", self._q(q)).reshape(3, len(self.collision))
         return np.ascontiguousarray(P.T)
 
+    def collision_points_at(self, Q: ArrayLike) -> Array:
+        """The collision spheres' centres at N states (rows of Q), (N, P, 3): the compiled
+        functions mapped over the states when their library is on disk, else the virtual
+        machine's mapped function."""
+        states = np.ascontiguousarray(np.atleast_2d(np.asarray(Q, dtype=float)))
+        N, P = len(states), len(self.collision)
+        if P == 0 or N == 0:
+            return np.zeros((N, P, 3))
+        natives = self.compiled()
+        if natives is not None:
+            return np.asarray(natives.many("collision_points", states), float).reshape(N, P, 3)
+        raw = np.asarray(self.functions["collision_points"].map(N)(states.T), dtype=float)
+        return np.ascontiguousarray(raw.T.reshape(N, P, 3))  # (3, N P), a block of P a state
+
     @cached_property
     def collision_radii(self) -> Array:
         """Radii of the collision spheres, (P,)."""

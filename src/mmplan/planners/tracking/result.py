@@ -43,13 +43,7 @@ def clearance_series(robot: Robot, scene: Scene, q: Array) -> Array | None:
     if not scene.obstacles:
         return None
     P = len(robot.collision)
-    natives = robot.compiled()
-    if natives is not None:  # the robot's compiled functions: no symbolic model built
-        pts = natives.many("collision_points", np.ascontiguousarray(q)).reshape(-1, 3)
-    else:
-        fn = robot.functions["collision_points"]
-        raw = np.asarray(fn.map(len(q))(q.T), dtype=float)  # (3, N P), a block of P a sample
-        pts = raw.reshape(3, len(q), P).transpose(1, 2, 0).reshape(-1, 3)  # (N P, 3)
+    pts = robot.collision_points_at(q).reshape(-1, 3)  # (N P, 3), compiled when on disk
     nearest = np.full(len(pts), np.inf)  # obstacle by obstacle: no (N P, n_obs) matrix
     for obstacle in scene.obstacles:
         np.minimum(nearest, obstacle.distance(pts), out=nearest)
